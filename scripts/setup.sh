@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Installs everything the project needs on a fresh machine of this kind (Debian + CPython 3.11).
+# Idempotent: a second call only checks. Set HARNESS_SKIP_APT=1 to skip the Debian packages.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+apt_packages=(liggghts liggghts-doc openmpi-bin chromium)
+if [ "${HARNESS_SKIP_APT:-0}" != 1 ] && command -v apt-get >/dev/null 2>&1; then
+    missing=()
+    for p in "${apt_packages[@]}"; do
+        dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")
+    done
+    if [ ${#missing[@]} -gt 0 ]; then
+        echo "setup: installing Debian packages: ${missing[*]}"
+        SUDO=""; [ "$(id -u)" = 0 ] || SUDO="sudo"
+        $SUDO apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" >/dev/null
+    fi
+fi
+
+if ! command -v harness >/dev/null 2>&1 || ! command -v dem >/dev/null 2>&1 \
+   || ! python3 -c "import numba, vtk, django, git, junit_xml, pytest, playwright, distributed" 2>/dev/null \
+   || [ pyproject.toml -nt .harness/.installed ]; then
+    echo "setup: installing Python packages (pip install -e .[test])"
+    python3 -m pip install -q --disable-pip-version-check -e ".[test]"
+    mkdir -p .harness && touch .harness/.installed
+fi
