@@ -7,6 +7,8 @@ Artifacts stay on disk in the run folder; the store keeps what lists, plots and 
 from django.conf import settings
 from django.db import models
 
+from harness.queries import RunQuerySet, SeriesQuerySet
+
 
 class Machine(models.Model):
     """A computer runs were executed on (hostname by default, ``--machine`` to name it)."""
@@ -48,6 +50,8 @@ class Build(models.Model):
     commit_message = models.TextField(blank=True)
     status = models.CharField(max_length=16, choices=Status.choices, default=Status.BUILDING)
     executable = models.TextField(blank=True, help_text="command prefix that runs the built engine (JSON list)")
+    environment = models.JSONField(default=dict, blank=True,
+                                   help_text="extra environment variables the engine needs (e.g. PYTHONPATH)")
     folder = models.TextField(blank=True)
     log = models.TextField(blank=True)
     started = models.DateTimeField(null=True, blank=True)
@@ -128,6 +132,8 @@ class Run(models.Model):
     created = models.DateTimeField(auto_now_add=True)
     updated = models.DateTimeField(auto_now=True)
 
+    objects = RunQuerySet.as_manager()
+
     class Meta:
         constraints = [models.UniqueConstraint(fields=["machine", "build", "testcase", "name"],
                                                name="unique_run_per_build")]
@@ -155,6 +161,8 @@ class Series(models.Model):
     x_column = models.CharField(max_length=200, blank=True, help_text="abscissa column (thermo: step)")
     columns = models.JSONField(default=dict)
     meta = models.JSONField(default=dict, help_text="units, title, axis labels as declared")
+
+    objects = SeriesQuerySet.as_manager()
 
     class Meta:
         constraints = [models.UniqueConstraint(fields=["run", "kind", "name"], name="unique_series")]
