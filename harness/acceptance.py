@@ -1,0 +1,293 @@
+"""Acceptance checks a run configuration can declare beyond "ran and is consistent with the reference".
+
+Two kinds, both evaluated after post-processing on the run's data (``thermo`` and every declared series or
+textfile, each a pandas DataFrame):
+
+``expectations``: a list of statements about one quantity::
+
+    {"quantity": "restitution.e", "at": "end", "value": 0.9, "rel_tol": 0.01}
+    {"quantity": "thermo.ke", "at": "max", "upper": 1e-3}
+
+``quantity`` is ``SERIES.COLUMN`` (``thermo.ke``), or a sum of such terms (``thermo.ke + thermo.rke``).
+``at`` reduces the column to one number: ``end`` (default), ``start``, ``min``, ``max``, ``mean``.
+The bound is ``value`` with ``rel_tol`` (fraction of |value|) and/or ``abs_tol``, or ``lower``/``upper``.
+
+``stability``: checks that hard cases stay numerically stable::
+
+    {"finite": true,                                   # no NaN/inf in any series (default true)
+     "particle_count": {"column": "thermo.atoms", "max_loss": 0},
+     "energy_never_grows": {"quantity": "thermo.ke + thermo.rke + thermo.pe", "rel_tol": 0.01, "after": 0.0},
+     "energy_drift": {"quantity": "thermo.etotal", "rel_tol": 0.01},
+     "max_overlap": {"quantity": "thermo.max_overlap", "upper": 0.1}}
+
+``energy_never_grows`` is for closed dissipative systems: no value may exceed the running minimum of what came
+before by more than ``rel_tol`` times the scale of the quantity (its largest absolute value) plus ``abs_tol``.
+``after`` (same unit as the series' first column, e.g. step) skips the start-up, where insertion may add energy.
+``energy_drift`` is for conservative systems (e = 1): every value stays within ``rel_tol`` of the first one.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+REDUCTIONS = ("end", "start", "min", "max", "mean")
+STABILITY_CHECKS = ("finite", "particle_count", "energy_never_grows", "energy_drift", "max_overlap")
+
+
+@dataclass
+class Verdict:
+    """Outcome of one acceptance check. ``reason`` is ``expectation`` or ``stability``."""
+
+    ok: bool
+    reason: str
+    message: str
+
+
+# ---------------------------------------------------------------------------------------------- validation
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _validate_quantity(quantity, where: str) -> list[str]:
+    if not isinstance(quantity, str) or not quantity.strip():
+        return [f"{where}: must be a string SERIES.COLUMN, e.g. 'thermo.ke'"]
+    errors = []
+    for term in quantity.split("+"):
+        series, _, column = term.strip().partition(".")
+        if not series or not column:
+            errors.append(f"{where}: term {term.strip()!r} is not of the form SERIES.COLUMN")
+    return errors
+
+
+def _validate_bounds(spec: dict, where: str, allow_value: bool = True) -> list[str]:
+    errors = []
+    keys = ("value", "rel_tol", "abs_tol", "lower", "upper") if allow_value else ("rel_tol", "abs_tol", "upper")
+    for key in keys:
+        if key in spec and not _is_number(spec[key]):
+            errors.append(f"{where}.{key}: must be a finite number, got {spec[key]!r}")
+    for key in ("rel_tol", "abs_tol"):
+        if _is_number(spec.get(key)) and spec[key] < 0:
+            errors.append(f"{where}.{key}: must be >= 0, got {spec[key]!r}")
+    if allow_value:
+        has_value = "value" in spec
+        if has_value and "rel_tol" not in spec and "abs_tol" not in spec:
+            errors.append(f"{where}: 'value' needs 'rel_tol' or 'abs_tol'")
+        if not has_value and "lower" not in spec and "upper" not in spec:
+            errors.append(f"{where}: needs 'value' with a tolerance, or 'lower'/'upper'")
+    return errors
+
+
+def validate(entry: dict) -> list[str]:
+    """Error messages for the ``expectations`` and ``stability`` keys of one run configuration entry.
+
+    Each message starts with the JSON path inside the entry (e.g. ``expectations[1].at``).
+    """
+    errors: list[str] = []
+    expectations = entry.get("expectations", [])
+    if not isinstance(expectations, list):
+        errors.append("expectations: must be a list of objects")
+        expectations = []
+    for i, spec in enumerate(expectations):
+        where = f"expectations[{i}]"
+        if not isinstance(spec, dict):
+            errors.append(f"{where}: must be an object")
+            continue
+        errors += _validate_quantity(spec.get("quantity"), f"{where}.quantity")
+        if spec.get("at", "end") not in REDUCTIONS:
+            errors.append(f"{where}.at: must be one of {', '.join(REDUCTIONS)}, got {spec.get('at')!r}")
+        errors += _validate_bounds(spec, where)
+        unknown = set(spec) - {"quantity", "at", "value", "rel_tol", "abs_tol", "lower", "upper", "name"}
+        if unknown:
+            errors.append(f"{where}: unknown field(s) {', '.join(sorted(unknown))}")
+
+    stability = entry.get("stability", {})
+    if not isinstance(stability, dict):
+        return errors + ["stability: must be an object"]
+    for key, spec in stability.items():
+        where = f"stability.{key}"
+        if key not in STABILITY_CHECKS:
+            errors.append(f"{where}: unknown check (known: {', '.join(STABILITY_CHECKS)})")
+        elif key == "finite":
+            if not isinstance(spec, bool):
+                errors.append(f"{where}: must be true or false")
+        elif not isinstance(spec, dict):
+            errors.append(f"{where}: must be an object")
+        elif key == "particle_count":
+            errors += _validate_quantity(spec.get("column", "thermo.atoms"), f"{where}.column")
+            if not _is_number(spec.get("max_loss", 0)) or spec.get("max_loss", 0) < 0:
+                errors.append(f"{where}.max_loss: must be a number >= 0")
+        else:
+            errors += _validate_quantity(spec.get("quantity"), f"{where}.quantity")
+            errors += _validate_bounds(spec, where, allow_value=False)
+            if key == "max_overlap" and "upper" not in spec:
+                errors.append(f"{where}: needs 'upper' (largest overlap allowed, as a fraction of the radius)")
+            if key in ("energy_never_grows", "energy_drift") and "rel_tol" not in spec and "abs_tol" not in spec:
+                errors.append(f"{where}: needs 'rel_tol' or 'abs_tol'")
+            if "after" in spec and not _is_number(spec["after"]):
+                errors.append(f"{where}.after: must be a number")
+    return errors
+
+
+# ---------------------------------------------------------------------------------------------- evaluation
+
+class _MissingData(Exception):
+    pass
+
+
+def _column(data: dict, quantity: str) -> tuple[np.ndarray, np.ndarray | None]:
+    """Values of ``SERIES.COLUMN`` (or a sum of terms) and the abscissa of the first term's series."""
+    total = None
+    abscissa = None
+    for term in quantity.split("+"):
+        series_name, _, column = term.strip().partition(".")
+        frame = data.get(series_name)
+        if frame is None:
+            raise _MissingData(f"{quantity}: no series {series_name!r} (have: {', '.join(sorted(data)) or 'none'})")
+        if column not in frame.columns:
+            raise _MissingData(f"{quantity}: series {series_name!r} has no column {column!r} "
+                               f"(columns: {', '.join(map(str, frame.columns))})")
+        values = np.asarray(frame[column], dtype=float)
+        if total is None:
+            total = values.copy()
+            abscissa = np.asarray(frame.iloc[:, 0], dtype=float) if len(frame.columns) else None
+        elif len(values) != len(total):
+            raise _MissingData(f"{quantity}: terms have different lengths ({len(total)} and {len(values)})")
+        else:
+            total += values
+    if total is None or len(total) == 0:
+        raise _MissingData(f"{quantity}: no values")
+    return total, abscissa
+
+
+def reduce_values(values: np.ndarray, at: str) -> float:
+    """One number from a column: end, start, min, max or mean."""
+    return float({"end": lambda v: v[-1], "start": lambda v: v[0], "min": np.min, "max": np.max,
+                  "mean": np.mean}[at](values))
+
+
+def _bounds(spec: dict) -> tuple[float, float, str]:
+    """(lower, upper, text) for a spec with value+tolerances or explicit lower/upper."""
+    if "value" in spec:
+        value = float(spec["value"])
+        half = max(float(spec.get("rel_tol", 0.0)) * abs(value), float(spec.get("abs_tol", 0.0)))
+        if "rel_tol" in spec and spec.get("rel_tol", 0) * abs(value) >= spec.get("abs_tol", 0):
+            text = f"{value:.6g} +/- {100 * spec['rel_tol']:.3g} %"
+        else:
+            text = f"{value:.6g} +/- {half:.3g}"
+        return value - half, value + half, f"{text} [{value - half:.6g}, {value + half:.6g}]"
+    lower = float(spec.get("lower", -math.inf))
+    upper = float(spec.get("upper", math.inf))
+    return lower, upper, f"[{lower:.6g}, {upper:.6g}]"
+
+
+def _check_expectation(spec: dict, data: dict) -> Verdict:
+    at = spec.get("at", "end")
+    label = spec.get("name") or f"{spec['quantity']} ({at})"
+    try:
+        values, _ = _column(data, spec["quantity"])
+    except _MissingData as exc:
+        return Verdict(False, "expectation", f"expectation {label}: {exc}")
+    measured = reduce_values(values, at)
+    lower, upper, text = _bounds(spec)
+    ok = math.isfinite(measured) and lower <= measured <= upper
+    relation = "within" if ok else "outside"
+    return Verdict(ok, "expectation", f"expectation {label} = {measured:.6g} {relation} {text}")
+
+
+def _check_finite(data: dict) -> Verdict:
+    for name, frame in data.items():
+        numeric = frame.select_dtypes(include="number")
+        bad = ~np.isfinite(numeric.to_numpy(dtype=float))
+        if bad.any():
+            row, col = np.argwhere(bad)[0]
+            at = frame.iloc[row, 0]
+            return Verdict(False, "stability", f"stability finite: {name}.{numeric.columns[col]} is "
+                                               f"{numeric.iat[row, col]} at {frame.columns[0]} {at}")
+    return Verdict(True, "stability", "stability finite: all values finite")
+
+
+def _check_particle_count(spec: dict, data: dict) -> Verdict:
+    column = spec.get("column", "thermo.atoms")
+    values, abscissa = _column(data, column)
+    loss = float(values[0] - values.min())
+    allowed = float(spec.get("max_loss", 0))
+    ok = loss <= allowed
+    message = f"stability particle_count: {column} lost {loss:g} particles (allowed {allowed:g})"
+    if not ok and abscissa is not None:
+        first = int(np.argmax(values < values[0] - allowed))
+        message += f", first below the bound at {abscissa[first]:g}"
+    return Verdict(ok, "stability", message)
+
+
+def _tolerance(spec: dict, scale: float) -> float:
+    return float(spec.get("rel_tol", 0.0)) * scale + float(spec.get("abs_tol", 0.0))
+
+
+def _check_never_grows(spec: dict, data: dict) -> Verdict:
+    values, abscissa = _column(data, spec["quantity"])
+    if abscissa is not None and "after" in spec:
+        keep = abscissa >= float(spec["after"])
+        values, abscissa = values[keep], abscissa[keep]
+    if len(values) < 2:
+        return Verdict(True, "stability", f"stability energy_never_grows: {spec['quantity']}: too few values")
+    running_min = np.minimum.accumulate(values)
+    growth = values[1:] - running_min[:-1]
+    tolerance = _tolerance(spec, float(np.max(np.abs(values))))
+    worst = int(np.argmax(growth))
+    ok = growth[worst] <= tolerance
+    where = f" at {abscissa[worst + 1]:g}" if abscissa is not None else ""
+    return Verdict(ok, "stability", f"stability energy_never_grows: {spec['quantity']} rose by "
+                                    f"{growth[worst]:.6g}{where} above its earlier minimum "
+                                    f"(tolerance {tolerance:.3g})")
+
+
+def _check_drift(spec: dict, data: dict) -> Verdict:
+    values, abscissa = _column(data, spec["quantity"])
+    deviation = np.abs(values - values[0])
+    tolerance = _tolerance(spec, abs(float(values[0])))
+    worst = int(np.argmax(deviation))
+    ok = deviation[worst] <= tolerance
+    where = f" at {abscissa[worst]:g}" if abscissa is not None else ""
+    return Verdict(ok, "stability", f"stability energy_drift: {spec['quantity']} moved {deviation[worst]:.6g}"
+                                    f"{where} from its initial {values[0]:.6g} (tolerance {tolerance:.3g})")
+
+
+def _check_max_overlap(spec: dict, data: dict) -> Verdict:
+    values, abscissa = _column(data, spec["quantity"])
+    worst = int(np.nanargmax(values))
+    ok = values[worst] <= float(spec["upper"])
+    where = f" at {abscissa[worst]:g}" if abscissa is not None else ""
+    return Verdict(ok, "stability", f"stability max_overlap: {spec['quantity']} reached {values[worst]:.4g}"
+                                    f"{where} (bound {float(spec['upper']):.4g})")
+
+
+_STABILITY = {
+    "particle_count": _check_particle_count,
+    "energy_never_grows": _check_never_grows,
+    "energy_drift": _check_drift,
+    "max_overlap": _check_max_overlap,
+}
+
+
+def evaluate(entry: dict, data: dict, folder: Path | None = None) -> list[Verdict]:
+    """Evaluate every expectation and stability check of a run configuration entry.
+
+    ``data`` maps series names (``thermo`` and the declared series/textfiles) to DataFrames whose first column
+    is the abscissa. ``folder`` is the run folder (unused by the built-in checks, kept for checks that read
+    artifacts). Returns one Verdict per check; a run fails when any verdict is not ok.
+    """
+    verdicts = [_check_expectation(spec, data) for spec in entry.get("expectations", [])]
+    stability = entry.get("stability", {})
+    if stability.get("finite", True) and data:
+        verdicts.append(_check_finite(data))
+    for key, check in _STABILITY.items():
+        if key in stability:
+            try:
+                verdicts.append(check(stability[key], data))
+            except _MissingData as exc:
+                verdicts.append(Verdict(False, "stability", f"stability {key}: {exc}"))
+    return verdicts
