@@ -1,0 +1,168 @@
+"""What accuracy costs in time: one run configuration over a grid of a variable.
+
+A run configuration declares a sweep block::
+
+    "sweep": {"variable": "DT_FRACTION", "values": [0.4, 0.2, 0.1, 0.05],
+              "error": {"quantity": "bounce.e", "at": "end", "exact": 0.9}}
+
+Discovery expands it into one ordinary run per value, named ``NAME@VARIABLE=VALUE``, with the value passed as
+``-var VARIABLE VALUE``, so the runs are executed, stored, post-processed and checked like any other. After they
+ran, :func:`sweep_table` turns them into a table of (value, wall time, quantity, error) and
+:func:`observed_order` fits the convergence order: the slope of log(error) against log(value). Velocity-Verlet
+should show about 2 when the swept variable is the time step.
+
+The error is ``|q - exact|`` when ``error.exact`` is given, otherwise ``|q - q_finest|`` where the finest run
+is the one with the smallest value (``"finest": "max"`` when larger means finer, e.g. a particle count).
+"""
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from harness.acceptance import REDUCTIONS, reduce_values
+
+SEPARATOR = "@"
+
+
+def point_name(name: str, variable: str, value) -> str:
+    return f"{name}{SEPARATOR}{variable}={value:g}" if isinstance(value, float) else f"{name}{SEPARATOR}{variable}={value}"
+
+
+def validate(entry: dict) -> list[str]:
+    """Error messages (JSON path inside the entry first) for a run configuration's ``sweep`` block."""
+    sweep = entry.get("sweep")
+    if sweep is None:
+        return []
+    if not isinstance(sweep, dict):
+        return ["sweep: must be an object with variable, values and error"]
+    errors = []
+    if not isinstance(sweep.get("variable"), str) or not sweep.get("variable"):
+        errors.append("sweep.variable: must be a variable name (passed as -var NAME VALUE)")
+    values = sweep.get("values")
+    if not isinstance(values, list) or len(values) < 2:
+        errors.append("sweep.values: must be a list of at least two values")
+    elif not all(isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0 for v in values):
+        errors.append("sweep.values: every value must be a number > 0 (the plot is log-log)")
+    elif len(set(values)) != len(values):
+        errors.append("sweep.values: values must be distinct")
+    error = sweep.get("error")
+    if not isinstance(error, dict):
+        errors.append("sweep.error: must be an object with quantity (SERIES.COLUMN) and optionally at, exact")
+    else:
+        quantity = error.get("quantity")
+        if not isinstance(quantity, str) or "." not in quantity:
+            errors.append("sweep.error.quantity: must be SERIES.COLUMN, e.g. 'thermo.ke'")
+        if error.get("at", "end") not in REDUCTIONS:
+            errors.append(f"sweep.error.at: must be one of {', '.join(REDUCTIONS)}")
+        if "exact" in error and not isinstance(error["exact"], (int, float)):
+            errors.append("sweep.error.exact: must be a number")
+    if sweep.get("finest", "min") not in ("min", "max"):
+        errors.append("sweep.finest: must be 'min' or 'max'")
+    return errors
+
+
+def expand(entry: dict) -> list[dict]:
+    """The run configuration entries of a sweep: one per value, or ``[entry]`` when there is no sweep."""
+    sweep = entry.get("sweep")
+    if not sweep:
+        return [entry]
+    points = []
+    for value in sweep["values"]:
+        point = copy.deepcopy(entry)
+        del point["sweep"]
+        point["name"] = point_name(entry["name"], sweep["variable"], value)
+        point.setdefault("variables", {})[sweep["variable"]] = value
+        point["sweep_point"] = {"sweep": entry["name"], "variable": sweep["variable"], "value": value}
+        points.append(point)
+    return points
+
+
+@dataclass
+class SweepPoint:
+    """One executed point: the swept value, the engine's wall time (s) and the measured quantity."""
+
+    value: float
+    wall_time: float | None
+    quantity: float | None
+    state: str = ""
+
+
+def measure(error_spec: dict, data: dict) -> float | None:
+    """The swept quantity of one run from its post-processed data (None when missing)."""
+    series, _, column = error_spec["quantity"].partition(".")
+    frame = data.get(series)
+    if frame is None or column not in frame.columns or len(frame) == 0:
+        return None
+    return reduce_values(np.asarray(frame[column], dtype=float), error_spec.get("at", "end"))
+
+
+def sweep_table(sweep: dict, points: list[SweepPoint]) -> pd.DataFrame:
+    """Table of value, wall_time, quantity and error, sorted from coarse to fine."""
+    finest_is_max = sweep.get("finest", "min") == "max"
+    table = pd.DataFrame([p.__dict__ for p in points]).sort_values("value", ascending=finest_is_max)
+    table = table.reset_index(drop=True)
+    error = sweep["error"]
+    if "exact" in error:
+        reference = float(error["exact"])
+    else:
+        finest = table.dropna(subset=["quantity"])
+        reference = float(finest["quantity"].iloc[-1]) if len(finest) else math.nan
+    table["error"] = (table["quantity"] - reference).abs()
+    if "exact" not in error and len(table):
+        # the finest run is the reference itself: its error is not a measurement
+        table.loc[table.index[-1], "error"] = math.nan
+    return table
+
+
+def observed_order(x, error) -> float | None:
+    """Least-squares slope of log(error) against log(x), over points with positive finite error."""
+    x = np.asarray(x, dtype=float)
+    error = np.asarray(error, dtype=float)
+    keep = np.isfinite(x) & np.isfinite(error) & (error > 0) & (x > 0)
+    if keep.sum() < 2:
+        return None
+    slope, _ = np.polyfit(np.log(x[keep]), np.log(error[keep]), 1)
+    return float(slope)
+
+
+def plot(table: pd.DataFrame, sweep: dict, title: str, path) -> None:
+    """Log-log plots side by side: error against wall time (the cost of accuracy) and error against the value."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    variable = sweep["variable"]
+    quantity = sweep["error"]["quantity"]
+    valid = table.dropna(subset=["error", "wall_time"])
+    valid = valid[valid["error"] > 0]
+    fig, (cost, conv) = plt.subplots(1, 2, figsize=(11, 4.2))
+    cost.loglog(valid["wall_time"], valid["error"], "o-", color="tab:blue")
+    for _, row in valid.iterrows():
+        cost.annotate(f"{variable}={row['value']:g}", (row["wall_time"], row["error"]), fontsize=8,
+                      textcoords="offset points", xytext=(4, 4))
+    cost.set_xlabel("wall time of the run [s]")
+    cost.set_ylabel(f"error of {quantity}")
+    cost.set_title("What accuracy costs in time")
+    cost.grid(True, which="both", alpha=0.3)
+
+    order = observed_order(valid["value"], valid["error"])
+    conv.loglog(valid["value"], valid["error"], "o-", color="tab:red",
+                label=f"observed order {order:.2f}" if order is not None else "measured")
+    if order is not None and len(valid):
+        x0, e0 = valid["value"].iloc[0], valid["error"].iloc[0]
+        xs = np.array([valid["value"].min(), valid["value"].max()])
+        conv.loglog(xs, e0 * (xs / x0) ** 2, "--", color="gray", label="order 2 (reference slope)")
+    conv.set_xlabel(variable)
+    conv.set_ylabel(f"error of {quantity}")
+    conv.set_title("Convergence")
+    conv.grid(True, which="both", alpha=0.3)
+    conv.legend()
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
