@@ -1,0 +1,282 @@
+"""Query logic of the dashboard (thesis 4.6): aggregated run counts per folder, run lists, comparisons.
+
+Counts are aggregated in the database grouped by test case and run outcome, then folded into folders
+("contact_models/hertz/impact" lives in the folders ``contact_models`` and ``contact_models/hertz``).
+The number of grouped rows is bounded by test cases x outcomes, never by the number of runs, and every
+page costs a fixed number of queries.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from django.db import models
+from django.db.models import Count, Exists, Min, OuterRef, Q, Sum
+
+#: run states whose execution succeeded (thesis 4.3.4: executed, post-processed, checked)
+SUCCESS_STATES = ("executed", "post_processed", "consistency_checked")
+#: consistency levels that pass (thesis 4.4.1: perfect < 5 %, good < 10 %)
+CONSISTENT_LEVELS = ("perfect", "good")
+
+#: outcome categories of the two overview modes, in display order
+STATE_CATEGORIES = ("successful", "failed", "not_executed", "outdated")
+CONSISTENCY_CATEGORIES = ("consistent", "inconsistent", "not_checked")
+
+
+def state_category(state: str) -> str:
+    """Overview category of a run state: successful, failed, not_executed or outdated."""
+    if state in SUCCESS_STATES:
+        return "successful"
+    if state in ("failed", "not_executed", "outdated"):
+        return state
+    return "not_executed"
+
+
+def consistency_category(consistency: str, accepted: bool) -> str:
+    """Overview category in version consistency mode; an accepted (overruled) run counts as consistent."""
+    if consistency in CONSISTENT_LEVELS:
+        return "consistent"
+    if consistency == "inconsistent":
+        return "consistent" if accepted else "inconsistent"
+    return "not_checked"
+
+
+def accepted_expression():
+    """SQL expression: the run was overruled as a whole, or every bad quantity has its own override.
+
+    A bad quantity is a ConsistencyResult whose level is neither perfect nor good (inconsistent, length
+    mismatch, missing). Failed runs can only be accepted as a whole (quantity blank).
+    """
+    from harness.models import ConsistencyResult, Override
+
+    whole_run = Exists(Override.objects.filter(run=OuterRef("pk"), quantity=""))
+    quantity_override = Override.objects.filter(run=OuterRef("run_id"), quantity=OuterRef("quantity"))
+    unaccepted_bad = ConsistencyResult.objects.filter(run=OuterRef("pk")).exclude(
+        level__in=CONSISTENT_LEVELS).exclude(Exists(quantity_override))
+    all_bad_overruled = Q(consistency="inconsistent") & ~Exists(unaccepted_bad)
+    return models.Case(models.When(whole_run | all_bad_overruled, then=True), default=False,
+                       output_field=models.BooleanField())
+
+
+@dataclass
+class Tally:
+    """Aggregated outcome of the runs below one folder or test case.
+
+    ``run_time`` is the summed engine wall time in s; ``lowest_c`` the lowest consistency C of any run.
+    """
+
+    name: str
+    path: str
+    is_testcase: bool = False
+    has_subfolders: bool = False
+    counts: dict = field(default_factory=dict)
+    run_time: float = 0.0
+    lowest_c: float | None = None
+    accepted: int = 0
+
+    @property
+    def total(self) -> int:
+        return sum(self.counts.get(c, 0) for c in STATE_CATEGORIES)
+
+    def add(self, row: dict) -> None:
+        n = row["n"]
+        state_cat = state_category(row["state"])
+        cons_cat = consistency_category(row["consistency"], row["accepted"])
+        self.counts[state_cat] = self.counts.get(state_cat, 0) + n
+        self.counts[cons_cat] = self.counts.get(cons_cat, 0) + n
+        self.run_time += row["time"] or 0.0
+        if row["accepted"]:
+            self.accepted += n
+        if row["cmin"] is not None and (self.lowest_c is None or row["cmin"] < self.lowest_c):
+            self.lowest_c = row["cmin"]
+
+    def share(self, mode: str = "state") -> float:
+        """Fraction of successful (state mode) or consistent (consistency mode) runs, 0..1."""
+        good = self.counts.get("consistent" if mode == "consistency" else "successful", 0)
+        return good / self.total if self.total else 0.0
+
+    def bar_color(self, mode: str = "state") -> str:
+        """Thesis 4.6.1: red below 25 % success, blue up to 100 %, green at 100 %."""
+        share = self.share(mode)
+        if self.total and share >= 1.0:
+            return "green"
+        return "red" if share < 0.25 else "blue"
+
+    def matches(self, category: str | None) -> bool:
+        """Whether this entry holds runs of the filtered category (no filter: always)."""
+        return not category or self.counts.get(category, 0) > 0
+
+
+def _child_name(testcase_path: str, prefix: str) -> str | None:
+    """First path component of ``testcase_path`` below folder ``prefix`` ('' = root), or None."""
+    if prefix:
+        if not testcase_path.startswith(prefix + "/"):
+            return None
+        rest = testcase_path[len(prefix) + 1:]
+    else:
+        rest = testcase_path
+    return rest.split("/", 1)[0]
+
+
+def fold_into_children(rows, prefix: str) -> tuple[list[Tally], Tally]:
+    """Fold rows grouped by test case path into the direct children of folder ``prefix``.
+
+    Returns (children sorted by name, tally of the folder itself). A child is a test case when a test
+    case has exactly its path, and has subfolders when a test case lies deeper below it.
+    """
+    children: dict[str, Tally] = {}
+    whole = Tally(name=prefix.rsplit("/", 1)[-1] if prefix else "", path=prefix)
+    for row in rows:
+        path = row["testcase__path"]
+        if path == prefix:
+            whole.is_testcase = True
+            whole.add(row)
+            continue
+        name = _child_name(path, prefix)
+        if name is None:
+            continue
+        child_path = f"{prefix}/{name}" if prefix else name
+        child = children.setdefault(name, Tally(name=name, path=child_path))
+        if path == child_path:
+            child.is_testcase = True
+        else:
+            child.has_subfolders = True
+        child.add(row)
+        whole.add(row)
+    return [children[k] for k in sorted(children)], whole
+
+
+class RunQuerySet(models.QuerySet):
+    """Runs, with the aggregations the dashboard lists need."""
+
+    def with_accepted(self):
+        return self.annotate(accepted=accepted_expression())
+
+    def below(self, folder: str):
+        """Runs of test cases in ``folder`` or below it, or of the test case with that path."""
+        if not folder:
+            return self
+        return self.filter(Q(testcase__path=folder) | Q(testcase__path__startswith=folder + "/"))
+
+    def outcome_rows(self, *group_by: str):
+        """Rows grouped by ``group_by`` + test case path + state + consistency + accepted.
+
+        Each row has ``n`` runs, summed wall ``time`` in s and the lowest consistency ``cmin``.
+        """
+        return (self.with_accepted()
+                .values(*group_by, "testcase__path", "state", "consistency", "accepted")
+                .annotate(n=Count("id"), time=Sum("wall_time"), cmin=Min("consistency_min"))
+                .order_by())
+
+    def overview(self) -> list[dict]:
+        """Machines, their targets, and each target's top-level folders with tallies (one query).
+
+        Returns ``[{"machine": name, "machine_id": id, "targets": [{"target": name, "target_id": id,
+        "reference": name or None, "tally": Tally, "folders": [Tally]}]}]``.
+        """
+        rows = self.outcome_rows("machine_id", "machine__name", "target_id", "target__name",
+                                 "target__reference__name")
+        grouped: dict = {}
+        for row in rows:
+            key_m = (row["machine__name"], row["machine_id"])
+            key_t = (row["target__name"], row["target_id"], row["target__reference__name"])
+            grouped.setdefault(key_m, {}).setdefault(key_t, []).append(row)
+        result = []
+        for (m_name, m_id) in sorted(grouped):
+            targets = []
+            for (t_name, t_id, ref) in sorted(grouped[(m_name, m_id)], key=lambda k: k[0]):
+                folders, whole = fold_into_children(grouped[(m_name, m_id)][(t_name, t_id, ref)], "")
+                targets.append({"target": t_name, "target_id": t_id, "reference": ref,
+                                "tally": whole, "folders": folders})
+            result.append({"machine": m_name, "machine_id": m_id, "targets": targets})
+        return result
+
+    def folder(self, folder: str) -> tuple[list[Tally], Tally]:
+        """Children of ``folder`` with tallies, and the folder's own tally (one query)."""
+        return fold_into_children(self.below(folder).outcome_rows(), folder)
+
+    def in_category(self, category: str | None):
+        """Filter by an overview category (successful, failed, ..., consistent, inconsistent, not_checked)."""
+        if not category:
+            return self
+        if category == "successful":
+            return self.filter(state__in=SUCCESS_STATES)
+        if category in ("failed", "not_executed", "outdated"):
+            return self.filter(state=category)
+        qs = self.with_accepted()
+        if category == "consistent":
+            return qs.filter(Q(consistency__in=CONSISTENT_LEVELS) | Q(consistency="inconsistent", accepted=True))
+        if category == "inconsistent":
+            return qs.filter(consistency="inconsistent", accepted=False)
+        if category == "not_checked":
+            return qs.exclude(consistency__in=CONSISTENT_LEVELS + ("inconsistent",))
+        return self.none()
+
+    def listing(self):
+        """Runs for a table: with build, target, machine, test case and the accepted flag (one query)."""
+        return (self.select_related("build", "target", "machine", "testcase")
+                .with_accepted()
+                .order_by("testcase__path", "name", "-build__committed_at", "-id"))
+
+    def detail(self):
+        """One run with everything its page shows, in a fixed number of queries."""
+        from django.db.models import Prefetch
+        from harness.models import ConsistencyResult, Override
+
+        return (self.select_related("build", "target", "target__reference", "machine", "testcase",
+                                    "reference_run", "reference_run__build", "reference_run__target")
+                .with_accepted()
+                .prefetch_related("series",
+                                  Prefetch("consistency_results",
+                                           queryset=ConsistencyResult.objects.order_by(
+                                               "value", "series_kind", "series_name", "quantity")),
+                                  Prefetch("overrides",
+                                           queryset=Override.objects.select_related("user").order_by("created"))))
+
+    def history(self, target, testcase, machine=None):
+        """Runs of one test case by the successive builds of a target, oldest build first."""
+        qs = self.filter(target=target, testcase=testcase)
+        if machine is not None:
+            qs = qs.filter(machine=machine)
+        return (qs.select_related("build", "machine").with_accepted()
+                .order_by("build__committed_at", "build__started", "build_id", "name"))
+
+
+    def reference_for(self, run):
+        """The reference run of ``run``: the stored one, else the same machine, test case and run name by
+        the reference target's newest build (thesis 4.4); None without a reference target."""
+        if run.reference_run_id:
+            return self.detail().filter(pk=run.reference_run_id).first()
+        if not run.target.reference_id:
+            return None
+        return (self.detail().filter(target_id=run.target.reference_id, machine_id=run.machine_id,
+                                     testcase_id=run.testcase_id, name=run.name)
+                .order_by("-build__committed_at", "-build__started", "-id").first())
+
+    def selected(self, ids):
+        """Runs by id in the order asked (duplicates and unknown ids dropped), ready for a comparison."""
+        runs = {r.pk: r for r in self.detail().filter(pk__in=ids)}
+        seen, out = set(), []
+        for i in ids:
+            if i in runs and i not in seen:
+                seen.add(i)
+                out.append(runs[i])
+        return out
+
+    def junit(self, machine_id=None, target_id=None):
+        """Runs for a JUnit report (outdated results of older builds left out), optionally of one machine
+        and target."""
+        qs = self.exclude(state="outdated")
+        if machine_id:
+            qs = qs.filter(machine_id=machine_id)
+        if target_id:
+            qs = qs.filter(target_id=target_id)
+        return qs.listing().order_by("machine__name", "target__name", "testcase__path", "name", "-id")
+
+
+class SeriesQuerySet(models.QuerySet):
+    def shared_by(self, runs) -> dict:
+        """Series that several runs have in common: ``{(kind, name): {run_id: Series}}`` (one query)."""
+        out: dict = {}
+        for series in self.filter(run__in=runs).order_by("kind", "name"):
+            out.setdefault((series.kind, series.name), {})[series.run_id] = series
+        return out

@@ -1,0 +1,365 @@
+"""Every dashboard view through Django's test client, content asserted; query counts fixed."""
+from __future__ import annotations
+
+import re
+import shutil
+import tempfile
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+from django.db import connection
+from django.test import Client, TestCase
+from django.test.utils import CaptureQueriesContext
+
+from dashboard_data import add_bulk_runs, make_store
+from harness.models import Override, Run
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+class DashboardTest(TestCase):
+    @classmethod
+    def setUpTestData(cls):
+        cls.root = Path(tempfile.mkdtemp(prefix="dashboard-runs-"))
+        cls.s = make_store(cls.root)
+
+    @classmethod
+    def tearDownClass(cls):
+        super().tearDownClass()
+        shutil.rmtree(cls.root, ignore_errors=True)
+
+    def get(self, url, **kw):
+        response = self.client.get(url, **kw)
+        self.assertEqual(response.status_code, 200, url)
+        return response
+
+    def queries(self, url) -> int:
+        with CaptureQueriesContext(connection) as ctx:
+            self.get(url)
+        return len(ctx.captured_queries)
+
+    def folder_url(self, path="", **params):
+        s = self.s
+        base = f"/m/{s['ws1'].pk}/t/{s['master'].pk}/" + (f"f/{path}/" if path else "")
+        return base + ("?" + "&".join(f"{k}={v}" for k, v in params.items()) if params else "")
+
+
+class OverviewTest(DashboardTest):
+    def test_machine_targets_folders_and_counts(self):
+        html = self.get("/").content.decode()
+        self.assertIn("machine ws1", html)
+        self.assertIn("dem-master", html)
+        self.assertIn("dem-v1", html)
+        master = html[html.index("dem-master"):]
+        # contact_models on master: 1 successful (consistency checked), 1 failed, 1 not executed, 1 outdated
+        row = master[master.index(">contact_models/<"):master.index("</tr>", master.index(">contact_models/<"))]
+        self.assertIn("1 successful", row)
+        self.assertIn("1 failed", row)
+        self.assertIn("1 not executed", row)
+        self.assertIn("1 outdated", row)
+        self.assertIn("fill blue", row)  # 1 of 4 successful: 25 % is blue, below would be red
+        packing = master[master.index(">packing/<"):]
+        self.assertIn("fill green", packing[:packing.index("</tr>")])
+
+    def test_bar_colors_follow_thesis_thresholds(self):
+        from harness.queries import Tally
+
+        def tally(ok, bad):
+            return Tally("x", "x", counts={"successful": ok, "failed": bad})
+
+        self.assertEqual(tally(1, 4).bar_color(), "red")     # 20 %
+        self.assertEqual(tally(1, 3).bar_color(), "blue")    # 25 %
+        self.assertEqual(tally(9, 1).bar_color(), "blue")    # 90 %
+        self.assertEqual(tally(3, 0).bar_color(), "green")   # 100 %
+        self.assertEqual(tally(0, 0).bar_color(), "red")     # nothing ran
+
+    def test_consistency_mode_counts_and_lowest_c(self):
+        html = self.get("/?mode=consistency").content.decode()
+        master = html[html.index("dem-master"):]
+        row = master[master.index(">contact_models/<"):master.index("</tr>", master.index(">contact_models/<"))]
+        # perfect (outdated older build) counts consistent, the drifted run inconsistent, the rest not checked
+        self.assertIn("1 consistent", row)
+        self.assertIn("1 inconsistent", row)
+        self.assertIn("2 not checked", row)
+        self.assertIn(f"{self.s['c']:.4f}", row)
+
+    def test_query_count_does_not_grow_with_runs(self):
+        before = self.queries("/")
+        add_bulk_runs(200, self.s["ws1"], self.s["master"], self.s["new_build"])
+        self.assertEqual(self.queries("/"), before)
+        self.assertLessEqual(before, 3)
+        html = self.get("/").content.decode()
+        self.assertIn("150 successful", html)  # 3 of every 4 bulk runs succeed
+
+    def test_empty_store_says_how_to_fill_it(self):
+        Run.objects.all().delete()
+        self.assertIn("harness run", self.get("/").content.decode())
+
+
+class FolderTest(DashboardTest):
+    def test_subfolders_aggregate_counts_and_run_time(self):
+        html = self.get(self.folder_url("contact_models")).content.decode()
+        hertz = html[html.index(">hertz/<"):]
+        hertz = hertz[:hertz.index("</tr>")]
+        self.assertIn("1 successful", hertz)
+        self.assertIn("1 outdated", hertz)
+        self.assertIn("3.1 s", hertz)  # 1.1 s + 2.0 s
+        hooke = html[html.index(">hooke/<"):]
+        self.assertIn("1 failed", hooke[:hooke.index("</tr>")])
+        self.assertIn("total run time 3.5 s", html)  # 1.1 + 2.0 + 0.4
+
+    def test_filter_by_state(self):
+        html = self.get(self.folder_url("contact_models", show="failed")).content.decode()
+        self.assertIn(">hooke/<", html)
+        self.assertNotIn(">hertz/<", html)
+
+    def test_test_case_lists_its_runs_with_selection(self):
+        html = self.get(self.folder_url("contact_models/hooke/impact")).content.decode()
+        self.assertIn("Test case contact_models/hooke/impact", html)
+        self.assertIn(f'value="{self.s["failed"].pk}"', html)
+        self.assertIn("non-zero exit code", html)
+        self.assertIn("not executed", html)
+        html = self.get(self.folder_url("contact_models/hooke/impact", show="failed")).content.decode()
+        self.assertNotIn(f'value="{self.s["not_run"].pk}"', html)
+
+    def test_consistency_mode_filter(self):
+        html = self.get(self.folder_url("contact_models/hertz/impact", mode="consistency",
+                                        show="inconsistent")).content.decode()
+        self.assertIn(f'value="{self.s["inconsistent"].pk}"', html)
+        self.assertNotIn(f'value="{self.s["older"].pk}"', html)
+
+    def test_unknown_folder_is_404(self):
+        self.assertEqual(self.client.get(self.folder_url("no/such")).status_code, 404)
+
+    def test_query_count_does_not_grow_with_runs(self):
+        url = self.folder_url("bulk")
+        leaf = self.folder_url("bulk/group0/case0")
+        add_bulk_runs(20, self.s["ws1"], self.s["master"], self.s["new_build"])
+        before, before_leaf = self.queries(url), self.queries(leaf)
+        add_bulk_runs(300, self.s["ws1"], self.s["master"], self.s["new_build"], prefix="bulk")
+        self.assertEqual(self.queries(url), before)
+        self.assertEqual(self.queries(leaf), before_leaf)
+        self.assertLessEqual(before_leaf, 6)
+
+
+class RunDetailTest(DashboardTest):
+    def test_everything_of_a_run_is_shown(self):
+        run = self.s["inconsistent"]
+        html = self.get(f"/runs/{run.pk}/").content.decode()
+        self.assertIn("version-consistency-checked", html)
+        self.assertIn('{&quot;run&quot;: 2000, &quot;dt&quot;: 2e-5}', html)  # input script, escaped
+        self.assertIn("&quot;dt&quot;: &quot;1e-5&quot;", html)               # run configuration
+        self.assertIn("Loop time of 1.5", html)                                # log
+        self.assertIn(f"stdout of run {run.pk}", html)
+        self.assertIn("faster neighbor list", html)                            # build information
+        self.assertIn("c" * 40, html)
+        for category in ("pair", "neigh", "comm", "modify", "output", "other"):
+            self.assertIn(f"title=\"{category}:", html)
+        self.assertIn("pair: 0.400 s", html)
+        self.assertIn("post/dump_100.vtp", html)
+        plots = re.findall(r'src="(/runs/\d+/plot/\d+\.png[^"]*)"', html)
+        self.assertEqual(len(plots), 4)  # declared torque plot + atoms, ke, rke (step is the abscissa)
+        self.assertIn("Torque", html)
+
+    def test_log_markup_is_escaped(self):
+        html = self.get(f"/runs/{self.s['inconsistent'].pk}/").content.decode()
+        self.assertNotIn("<script>alert", html)
+        self.assertIn("&lt;script&gt;alert(&#x27;log&#x27;)&lt;/script&gt;", html)
+        html = self.get(f"/runs/{self.s['failed'].pk}/").content.decode()
+        self.assertIn("Segmentation &lt;fault&gt; &amp; core dumped", html)
+        self.assertIn("non-zero exit code: engine exited with code 3", html)
+
+    def test_fixed_query_count(self):
+        self.assertLessEqual(self.queries(f"/runs/{self.s['inconsistent'].pk}/"), 8)
+
+    def test_plots_are_png(self):
+        html = self.get(f"/runs/{self.s['reference'].pk}/").content.decode()
+        for url in re.findall(r'src="(/runs/\d+/plot/\d+\.png[^"]*)"', html):
+            response = self.get(url.replace("&amp;", "&"))
+            self.assertEqual(response["Content-Type"], "image/png")
+            self.assertTrue(response.content.startswith(PNG_MAGIC))
+        series = self.s["reference"].series.get(kind="thermo")
+        self.assertEqual(self.client.get(f"/runs/{self.s['reference'].pk}/plot/{series.pk}.png?q=nope")
+                         .status_code, 404)
+
+    def test_artifact_download_and_traversal(self):
+        run = self.s["reference"]
+        response = self.get(f"/runs/{run.pk}/files/post/torque.csv")
+        self.assertEqual(b"".join(response.streaming_content), b"t,torqueZ\n0,0\n1,0.5\n")
+        vtp = b"".join(self.get(f"/runs/{run.pk}/files/post/dump_100.vtp").streaming_content)
+        self.assertIn(b"<VTKFile", vtp)
+        secret = Path(run.folder).parent / "secret.txt"
+        secret.write_text("not yours")
+        (Path(run.folder) / "escape").symlink_to(secret)
+        for bad in ("../secret.txt", "..%2Fsecret.txt", "post/../../secret.txt", "escape",
+                    "%2Fetc%2Fpasswd", "post"):
+            self.assertEqual(self.client.get(f"/runs/{run.pk}/files/{bad}").status_code, 404, bad)
+
+    def test_missing_run_is_404(self):
+        self.assertEqual(self.client.get("/runs/999999/").status_code, 404)
+
+
+class CompareTest(DashboardTest):
+    def test_two_runs_timing_diffs_and_overlaid_plots(self):
+        a, b = self.s["reference"], self.s["inconsistent"]
+        html = self.get(f"/compare/?run={a.pk}&run={b.pk}").content.decode()
+        self.assertIn("Comparison of 2 runs", html)
+        self.assertIn("pair: 0.800 s", html)
+        self.assertIn("pair: 0.400 s", html)
+        self.assertIn('<span class="del">-{&quot;run&quot;: 2000, &quot;dt&quot;: 1e-5}</span>', html)
+        self.assertIn('<span class="add">+{&quot;run&quot;: 2000, &quot;dt&quot;: 2e-5}</span>', html)
+        self.assertIn("run configuration: identical", html)
+        self.assertIn("&lt;script&gt;", html)  # the log diff, escaped
+        plot_urls = re.findall(r'src="(/compare/plot\.png[^"]*)"', html)
+        self.assertEqual(len(plot_urls), 4)
+        response = self.get(plot_urls[0].replace("&amp;", "&"))
+        self.assertTrue(response.content.startswith(PNG_MAGIC))
+
+    def test_three_runs_without_diffs(self):
+        ids = [self.s[k].pk for k in ("reference", "inconsistent", "older")]
+        html = self.get("/compare/?run=" + ",".join(map(str, ids))).content.decode()
+        self.assertIn("Comparison of 3 runs", html)
+        self.assertIn("select exactly two", html)
+        self.assertEqual(html.count('class="timing-row"'), 3)
+        self.assertIn("(3 of 3 runs)", html)
+
+    def test_timing_bars_share_one_scale(self):
+        html = self.get(f"/compare/?run={self.s['older'].pk}&run={self.s['inconsistent'].pk}").content.decode()
+        widths = re.findall(r'class="stack" style="width: ([\d.]+)%"', html)
+        self.assertEqual(widths, ["100.0", "55.0"])  # 1.1 s of 2.0 s
+
+    def test_nothing_selected(self):
+        self.assertIn("Select two or more runs", self.get("/compare/").content.decode())
+
+    def test_fixed_query_count(self):
+        ids = [self.s[k].pk for k in ("reference", "inconsistent", "older", "good")]
+        self.assertLessEqual(self.queries("/compare/?run=" + ",".join(map(str, ids))), 8)
+
+
+class ConsistencyTest(DashboardTest):
+    def test_opens_as_comparison_with_reference(self):
+        run = self.s["inconsistent"]
+        html = self.get(f"/runs/{run.pk}/consistency/").content.decode()
+        self.assertIn(f"Version consistency of run #{run.pk}", html)
+        self.assertIn(f"Reference run: <a href=\"/runs/{self.s['reference'].pk}/\">", html)
+        self.assertIn(f"{self.s['c']:.4f}", html)
+        self.assertIn("inconsistent", html)
+        self.assertIn(f"<td class=\"num\">{self.s['first_bad']}</td>", html)
+        self.assertIn("Differences (unified diff", html)
+        urls = re.findall(r'src="(/runs/\d+/consistency/\d+\.png)"', html)
+        self.assertEqual(len(urls), 2)
+        for url in urls:
+            self.assertTrue(self.get(url).content.startswith(PNG_MAGIC))
+
+    def test_lowest_c_listed_first(self):
+        html = self.get(f"/runs/{self.s['inconsistent'].pk}/consistency/").content.decode()
+        self.assertLess(html.index(">ke<"), html.index(">atoms<"))
+
+    def test_reference_found_without_stored_link(self):
+        run = self.s["inconsistent"]
+        Run.objects.filter(pk=run.pk).update(reference_run=None)
+        html = self.get(f"/runs/{run.pk}/consistency/").content.decode()
+        self.assertIn(f"Reference run: <a href=\"/runs/{self.s['reference'].pk}/\">", html)
+
+    def test_without_reference_target(self):
+        html = self.get(f"/runs/{self.s['reference'].pk}/consistency/").content.decode()
+        self.assertIn("names no reference target", html)
+
+
+class OverruleTest(DashboardTest):
+    def url(self):
+        return f"/runs/{self.s['inconsistent'].pk}/override/"
+
+    def test_anonymous_cannot_overrule(self):
+        response = self.client.post(self.url(), {"reason": "fine"})
+        self.assertEqual(response.status_code, 302)
+        self.assertIn("/accounts/login/", response["Location"])
+        self.assertFalse(Override.objects.exists())
+        html = self.get(f"/runs/{self.s['inconsistent'].pk}/").content.decode()
+        self.assertIn("to accept a failure or an inconsistency", html)
+        self.assertNotIn('name="reason"', html)
+
+    def test_csrf_token_required(self):
+        client = Client(enforce_csrf_checks=True)
+        client.force_login(self.s["user"])
+        self.assertEqual(client.post(self.url(), {"reason": "fine"}).status_code, 403)
+        html = client.get(f"/runs/{self.s['inconsistent'].pk}/").content.decode()
+        token = re.search(r'name="csrfmiddlewaretoken" value="([^"]+)"', html).group(1)
+        self.assertEqual(client.post(self.url(), {"reason": "fine", "csrfmiddlewaretoken": token})
+                         .status_code, 302)
+        self.assertEqual(Override.objects.count(), 1)
+
+    def test_reason_required(self):
+        self.client.force_login(self.s["user"])
+        response = self.client.post(self.url(), {"reason": "   "}, follow=True)
+        self.assertFalse(Override.objects.exists())
+        self.assertIn("Not overruled: reason: This field is required.", response.content.decode())
+
+    def test_overrule_is_kept_shown_and_counted(self):
+        self.client.force_login(self.s["user"])
+        response = self.client.post(self.url(), {"reason": "new damping <b>intended</b>", "quantity": "",
+                                                 "next": "consistency"}, follow=True)
+        self.assertEqual(response.redirect_chain[-1][0], f"/runs/{self.s['inconsistent'].pk}/consistency/")
+        override = Override.objects.get()
+        self.assertEqual((override.user, override.quantity), (self.s["user"], ""))
+        html = response.content.decode()
+        self.assertIn("reviewer", html)
+        self.assertIn("new damping &lt;b&gt;intended&lt;/b&gt;", html)
+        self.assertIn(override.created.strftime("%Y-%m-%d %H:%M"), html)
+        html = self.get("/?mode=consistency").content.decode()
+        master = html[html.index("dem-master"):]
+        row = master[master.index(">contact_models/<"):]
+        self.assertIn("2 consistent", row[:row.index("</tr>")])
+        self.assertIn("0 inconsistent", row[:row.index("</tr>")])
+
+    def test_per_quantity_overrule_accepts_when_all_bad_quantities_are_covered(self):
+        self.client.force_login(self.s["user"])
+        self.client.post(self.url(), {"reason": "ke drift explained", "quantity": "ke"})
+        self.assertTrue(Run.objects.with_accepted().get(pk=self.s["inconsistent"].pk).accepted)
+        response = self.client.post(self.url(), {"reason": "x", "quantity": "not-a-bad-quantity"}, follow=True)
+        self.assertIn("Not overruled: quantity", response.content.decode())
+
+    def test_get_is_not_allowed(self):
+        self.client.force_login(self.s["user"])
+        self.assertEqual(self.client.get(self.url()).status_code, 405)
+
+    def test_login_page(self):
+        html = self.get("/accounts/login/?next=/").content.decode()
+        self.assertIn("csrfmiddlewaretoken", html)
+        response = self.client.post("/accounts/login/", {"username": "reviewer", "password": "pw-for-tests-only",
+                                                         "next": "/"})
+        self.assertEqual(response.status_code, 302)
+        self.assertIn("log out", self.get("/").content.decode())
+
+
+class HistoryJunitStaticTest(DashboardTest):
+    def test_history_lists_builds_oldest_first(self):
+        s = self.s
+        html = self.get(f"/history/{s['master'].pk}/{s['hertz'].path}/?machine={s['ws1'].pk}").content.decode()
+        self.assertIn("History of contact_models/hertz/impact on dem-master", html)
+        self.assertLess(html.index("HEAD~1"), html.index("HEAD <code>"))
+        self.assertIn("0.9900", html)
+        url = re.search(r'src="(/history/[^"]+)"', html).group(1).replace("&amp;", "&")
+        self.assertTrue(self.get(url).content.startswith(PNG_MAGIC))
+
+    def test_junit_xml(self):
+        response = self.get("/junit.xml")
+        self.assertEqual(response["Content-Type"], "application/xml")
+        root = ET.fromstring(response.content)
+        suite = next(s for s in root.iter("testsuite") if s.get("name") == "dem-master on ws1")
+        cases = {(c.get("classname"), c.get("name")): c for c in suite.iter("testcase")}
+        self.assertEqual(len(cases), 4)  # the outdated run of the older build is left out
+        self.assertIsNotNone(cases[("contact_models.hooke.impact", "serial")].find("failure"))
+        self.assertIsNotNone(cases[("contact_models.hooke.impact", "mpi4")].find("skipped"))
+        self.assertIsNotNone(cases[("contact_models.hertz.impact", "serial")].find("failure"))
+        self.assertIsNone(cases[("packing.settle", "serial")].find("failure"))
+        Override.objects.create(run=self.s["failed"], user=self.s["user"], reason="known crash")
+        root = ET.fromstring(self.get(f"/junit.xml?target={self.s['master'].pk}").content)
+        cases = {(c.get("classname"), c.get("name")): c for c in root.iter("testcase")}
+        self.assertIsNone(cases[("contact_models.hooke.impact", "serial")].find("failure"))
+        self.assertEqual(len(root.findall("testsuite")), 1)
+
+    def test_static_files_served(self):
+        response = self.client.get("/static/webfrontend/style.css")
+        self.assertEqual(response.status_code, 200)
+        self.assertIn(b".bar", b"".join(response.streaming_content))

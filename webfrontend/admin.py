@@ -1,0 +1,9 @@
+from django.contrib import admin
+
+from harness.models import Override
+
+
+@admin.register(Override)
+class OverrideAdmin(admin.ModelAdmin):
+    list_display = ("run", "quantity", "user", "created")
+    readonly_fields = ("created",)

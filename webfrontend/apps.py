@@ -1,0 +1,6 @@
+from django.apps import AppConfig
+
+
+class WebfrontendConfig(AppConfig):
+    name = "webfrontend"
+    verbose_name = "DEM harness dashboard"

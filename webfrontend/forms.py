@@ -1,0 +1,16 @@
+"""The one form of the dashboard: overruling a failure or an inconsistency with a reason."""
+from django import forms
+
+
+class OverrideForm(forms.Form):
+    """Quantity blank = the whole run; otherwise one quantity found not consistent by the check."""
+
+    quantity = forms.ChoiceField(required=False, label="accept")
+    reason = forms.CharField(widget=forms.Textarea(attrs={"rows": 3, "cols": 60}), max_length=5000,
+                             strip=True, label="reason",
+                             help_text="why this difference or failure is tolerable (kept and shown)")
+
+    def __init__(self, run, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        bad = sorted({r.quantity for r in run.consistency_results.all() if r.level not in ("perfect", "good")})
+        self.fields["quantity"].choices = [("", "the whole run")] + [(q, f"quantity {q}") for q in bad]

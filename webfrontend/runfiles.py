@@ -1,0 +1,105 @@
+"""Reading a run folder for the dashboard: the input script, log, console output, artifacts.
+
+Every path a request names is resolved and must stay inside the run folder (no ``../``, no symlink out).
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from django.conf import settings
+
+#: candidate file names, first existing wins (the bundled engine's adapter writes log.txt, see
+#: harness/adapters/base.py; LIGGGHTS-style folders use log.liggghts)
+LOG_NAMES = ("log.txt", "log.liggghts", "log.lammps", "log")
+STDOUT_NAMES = ("stdout.txt", "stdout", "stdout.log", "out.txt")
+STDERR_NAMES = ("stderr.txt", "stderr", "stderr.log", "err.txt")
+SCRIPT_KEYS = ("script", "input", "input_script")
+RECORD_NAME = "run.json"
+#: artifact suffixes offered for download on the run page
+ARTIFACT_SUFFIXES = (".vtp", ".vtk", ".vtu", ".csv", ".txt", ".json", ".xml", ".dat", ".log", ".in")
+
+
+@dataclass
+class TextFile:
+    """A text shown on a page: ``name`` relative to the run folder, ``text`` possibly cut at ``limit``."""
+
+    name: str
+    text: str
+    truncated: bool = False
+
+
+class RunFolder:
+    """The files of one run on disk (``Run.folder``); missing folders read as empty."""
+
+    def __init__(self, run):
+        self.run = run
+        self.root = Path(run.folder).resolve() if run.folder else None
+
+    def exists(self) -> bool:
+        return self.root is not None and self.root.is_dir()
+
+    def resolve(self, relative: str) -> Path | None:
+        """Path of ``relative`` inside the run folder, or None if it leaves the folder or is no file."""
+        if not self.exists() or not relative or "\x00" in relative:
+            return None
+        candidate = (self.root / relative).resolve()
+        if not candidate.is_relative_to(self.root) or not candidate.is_file():
+            return None
+        return candidate
+
+    def _first(self, names) -> str | None:
+        for name in names:
+            if name and self.resolve(name):
+                return name
+        return None
+
+    def read(self, relative: str | None, limit: int | None = None) -> TextFile | None:
+        """Text of a file in the run folder (undecodable bytes replaced), cut at ``limit`` bytes."""
+        path = self.resolve(relative) if relative else None
+        if path is None:
+            return None
+        limit = limit or settings.DASHBOARD_TEXT_LIMIT
+        with path.open("rb") as fh:
+            data = fh.read(limit + 1)
+        return TextFile(relative, data[:limit].decode("utf-8", "replace"), len(data) > limit)
+
+    def script_name(self) -> str | None:
+        config = self.run.config if isinstance(self.run.config, dict) else {}
+        names = [config.get(k) for k in SCRIPT_KEYS if isinstance(config.get(k), str)]
+        found = self._first(names)
+        if found or not self.exists():
+            return found
+        # Fall back on the usual input script names of LAMMPS-family codes and the bundled engine.
+        for pattern in ("in.*", "*.in", "*.dem.json", "scene*.json"):
+            for path in sorted(self.root.glob(pattern)):
+                if path.is_file() and path.name != RECORD_NAME:
+                    return path.name
+        return None
+
+    def texts(self) -> dict[str, TextFile | None]:
+        """The texts the run page and the comparison show, by section."""
+        return {
+            "input script": self.read(self.script_name()),
+            "run configuration": TextFile("run.config entry", json.dumps(self.run.config, indent=2,
+                                                                           sort_keys=True)),
+            "run record": self.read(RECORD_NAME),
+            "log": self.read(self._first(LOG_NAMES)),
+            "stdout": self.read(self._first(STDOUT_NAMES)),
+            "stderr": self.read(self._first(STDERR_NAMES)),
+        }
+
+    def artifacts(self, limit: int = 500) -> list[tuple[str, int]]:
+        """(relative path, size in bytes) of downloadable files, at most ``limit``, sorted by path."""
+        if not self.exists():
+            return []
+        found = []
+        for path in sorted(self.root.rglob("*")):
+            if path.is_file() and path.suffix.lower() in ARTIFACT_SUFFIXES:
+                resolved = path.resolve()
+                if resolved.is_relative_to(self.root):
+                    found.append((path.relative_to(self.root).as_posix(), path.stat().st_size))
+                if len(found) >= limit:
+                    break
+        return found

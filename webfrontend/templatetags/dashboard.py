@@ -1,0 +1,53 @@
+"""Template helpers: the success bar of a folder (thesis 4.6.1) and small formatting filters."""
+from django import template
+
+register = template.Library()
+
+LABELS = {"successful": "successful", "failed": "failed", "not_executed": "not executed",
+          "outdated": "outdated", "consistent": "consistent", "inconsistent": "inconsistent",
+          "not_checked": "not checked"}
+
+
+@register.inclusion_tag("webfrontend/parts/bar.html")
+def tally_bar(tally, mode="state"):
+    """Bar whose length is the share of successful (or consistent) runs, with the counts beside it."""
+    categories = (("consistent", "inconsistent", "not_checked") if mode == "consistency"
+                  else ("successful", "failed", "not_executed"))
+    return {"tally": tally, "percent": round(100 * tally.share(mode), 1), "color": tally.bar_color(mode),
+            "counts": [(LABELS[c], c, tally.counts.get(c, 0)) for c in categories],
+            "outdated": tally.counts.get("outdated", 0), "mode": mode}
+
+
+@register.filter
+def seconds(value):
+    """Run time for humans: 0.42 s, 12.3 s, 4 min 05 s, 2 h 03 min."""
+    if value is None:
+        return "-"
+    value = float(value)
+    if value < 60:
+        return f"{value:.3g} s"
+    if value < 3600:
+        return f"{int(value // 60)} min {int(value % 60):02d} s"
+    return f"{int(value // 3600)} h {int(value % 3600 // 60):02d} min"
+
+
+@register.filter
+def category_label(value):
+    return LABELS.get(value, value)
+
+
+@register.filter
+def c_value(value):
+    return "-" if value is None else f"{value:.4f}"
+
+
+@register.simple_tag
+def timing_categories():
+    from webfrontend.presentation import TIMING_CATEGORIES
+    return TIMING_CATEGORIES
+
+
+@register.filter
+def num(value):
+    """A float in its shortest exact-enough form (1000, 4.59e-05); '-' for none."""
+    return "-" if value is None else f"{value:.6g}"
