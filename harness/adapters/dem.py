@@ -1,0 +1,103 @@
+"""Adapter for the bundled engine (``python -m engine`` / ``dem``), after its program contract.
+
+Command line ``-in SCRIPT -var NAME VALUE ... -log FILE`` run in the run folder; thermo in ``thermo.csv``
+(``step,time,atoms,ke,rke,...``), timing in ``timing.json``, ``ERROR:``/``WARNING:`` lines in the log,
+VTK PolyData dumps ``post/<prefix>_<step>.vtp``.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from harness.adapters import register
+from harness.adapters.base import EngineAdapter, LogScan, UserError
+
+TIMING_KEYS = ("pair", "neigh", "comm", "modify", "output", "other", "total")
+
+
+def read_text(path: Path) -> str:
+    """A text file as str; bytes that are not UTF-8 become U+FFFD (engines may write anything)."""
+    return path.read_text(encoding="utf-8", errors="replace")
+
+
+def scan_lines(text: str) -> LogScan:
+    scan = LogScan()
+    for line in text.splitlines():
+        stripped = line.strip()
+        if stripped.startswith("ERROR"):
+            scan.errors.append(stripped)
+        elif stripped.startswith("WARNING"):
+            scan.warnings.append(stripped)
+    return scan
+
+
+def apply_mapping(frame: pd.DataFrame, mapping: dict[str, str] | None, required, source: str) -> pd.DataFrame:
+    """Rename engine columns onto the harness' names (``{"ke": "KinEng"}``) and check the required ones."""
+    if mapping:
+        missing = [column for column in mapping.values() if column not in frame.columns]
+        if missing:
+            raise UserError(f"{source}: thermo_columns names column(s) {', '.join(missing)} that are not there "
+                            f"(columns: {', '.join(map(str, frame.columns))})")
+        frame = frame.rename(columns={engine: ours for ours, engine in mapping.items()})
+    absent = [column for column in required if column not in frame.columns]
+    if absent:
+        raise UserError(f"{source}: required thermo column(s) {', '.join(absent)} missing "
+                        f"(columns: {', '.join(map(str, frame.columns))}); map them with thermo_columns")
+    return frame
+
+
+@register
+class DemAdapter(EngineAdapter):
+    name = "dem"
+    thermo_file = "thermo.csv"
+    timing_file = "timing.json"
+
+    def command(self, executable, script, variables, log, mpi=None):
+        command = list(mpi or []) + list(executable) + ["-in", script]
+        for name, value in variables.items():
+            command += ["-var", str(name), str(value)]
+        return command + ["-log", log]
+
+    def log_file(self) -> str:
+        return "log.dem"
+
+    def read_thermo(self, folder: Path, mapping=None) -> pd.DataFrame:
+        path = Path(folder) / self.thermo_file
+        if not path.is_file():
+            raise UserError(f"no thermo output: {self.thermo_file} missing")
+        try:
+            frame = pd.read_csv(path, skipinitialspace=True, encoding_errors="replace")
+        except (pd.errors.EmptyDataError, pd.errors.ParserError) as exc:
+            raise UserError(f"{self.thermo_file}: unreadable ({str(exc).splitlines()[0]})") from None
+        frame.columns = [str(c).strip() for c in frame.columns]
+        if frame.empty:
+            raise UserError(f"{self.thermo_file}: header only, no thermo rows")
+        return apply_mapping(frame, mapping, self.required_thermo, self.thermo_file)
+
+    def read_timing(self, folder: Path) -> dict[str, float]:
+        path = Path(folder) / self.timing_file
+        try:
+            data = json.loads(read_text(path))
+        except (OSError, ValueError):
+            return {}
+        if not isinstance(data, dict):
+            return {}
+        timing = {}
+        for key, value in data.items():
+            if isinstance(value, (int, float)) and not isinstance(value, bool):
+                timing[key] = float(value)
+        for key in TIMING_KEYS:
+            timing.setdefault(key, 0.0)
+        return timing
+
+    def scan_log(self, folder: Path) -> LogScan:
+        path = Path(folder) / self.log_file()
+        return scan_lines(read_text(path)) if path.is_file() else LogScan()
+
+    def vtk_files(self, folder: Path) -> list[Path]:
+        from harness.postprocess import dump_step
+
+        files = [p for p in (Path(folder) / "post").rglob("*.vtp")] if (Path(folder) / "post").is_dir() else []
+        return sorted(files, key=lambda p: (p.parent.as_posix(), dump_step(p) or 0, p.name))

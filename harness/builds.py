@@ -1,0 +1,200 @@
+"""Building targets (thesis 4.2): resolve the revision, export the source, run the recipe, cache the result.
+
+Builds are cached in ``builds_dir()/<target>/<commit>-<definition hash>/`` and count only once the recipe
+finished and the ``done`` marker is written (a crash mid-build leaves no half build that looks usable). The
+build log is kept as ``build.log`` and in the store. When a target's binary changes, its earlier results
+become outdated (thesis 4.3.4).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import sys
+from datetime import datetime, timezone
+from pathlib import Path
+
+from harness import gitrepo
+from harness.adapters.base import UserError
+from harness.paths import builds_dir
+from harness.targets import TargetDefinition
+
+DONE_MARKER = "done"
+
+
+class BuildError(UserError):
+    """A recipe failed; the message names the target and points at the kept log."""
+
+
+def _now():
+    return datetime.now(timezone.utc)
+
+
+def ensure_machine(name: str):
+    from harness.models import Machine
+
+    return Machine.objects.get_or_create(name=name)[0]
+
+
+def ensure_target(target: TargetDefinition):
+    """The store's row for a target definition (created or updated), linked to its reference's row."""
+    from harness.models import Target
+
+    row, _ = Target.objects.get_or_create(name=target.name)
+    row.definition = target.as_dict()
+    if target.reference:
+        row.reference = Target.objects.get_or_create(name=target.reference)[0]
+    row.save()
+    return row
+
+
+def sha256_file(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _system_executable(target: TargetDefinition) -> Path:
+    found = shutil.which(target.executable)
+    if not found:
+        raise UserError(f"{target.path}: $.executable: {target.executable!r} not found or not executable")
+    return Path(found).resolve()
+
+
+def resolve_commit(target: TargetDefinition) -> dict:
+    """What the target's revision is now: ``commit`` plus date and message where git knows them."""
+    if target.recipe == "system":
+        binary = _system_executable(target)
+        return {"commit": sha256_file(binary), "committed_at": None,
+                "commit_message": f"system executable {binary}"}
+    repo = gitrepo.open_repository(target.repository)
+    return gitrepo.commit_info(gitrepo.resolve(repo, target.revision))
+
+
+def current_build(target_name: str, machine_name: str):
+    """The newest complete build of a target on a machine, or None."""
+    from harness.models import Build
+
+    return (Build.objects.filter(target__name=target_name, machine__name=machine_name,
+                                 status=Build.Status.COMPLETE).order_by("-finished", "-id").first())
+
+
+def build_target(target: TargetDefinition, machine_name: str, force: bool = False, log=None):
+    """Build ``target`` at its revision on this machine, or return the cached build.
+
+    ``log`` is a callable taking a line of progress text (default: nothing).
+    Raises BuildError when the recipe fails (the Build row is kept with status failed and the log).
+    """
+    from harness.models import Build, Run
+
+    say = log or (lambda text: None)
+    machine = ensure_machine(machine_name)
+    target_row = ensure_target(target)
+    info = resolve_commit(target)
+    key = f"{info['commit'][:16]}-{target.definition_hash[:10]}"
+    folder = builds_dir() / target.name / key
+    build, _ = Build.objects.get_or_create(
+        target=target_row, machine=machine, commit=info["commit"], definition_hash=target.definition_hash,
+        defaults={"revision": target.revision})
+    if (build.status == Build.Status.COMPLETE and not force and (folder / DONE_MARKER).is_file()):
+        return build
+    say(f"building {target.name} at {info['commit'][:12]} ({target.recipe})")
+    gitrepo.replace_folder(folder)
+    folder.mkdir(parents=True)
+    build.revision = target.revision
+    build.committed_at = datetime.fromisoformat(info["committed_at"]) if info["committed_at"] else None
+    build.commit_message = info["commit_message"]
+    build.status = Build.Status.BUILDING
+    build.folder = str(folder)
+    build.started, build.finished, build.log = _now(), None, ""
+    build.save()
+    log_path = folder / "build.log"
+    try:
+        with open(log_path, "w", encoding="utf-8") as log_file:
+            executable, environment = RECIPES[target.recipe](target, info["commit"], folder, log_file)
+    except UserError as exc:
+        build.status = Build.Status.FAILED
+        build.log = _read_text(log_path) + f"\n{exc}\n"
+        build.finished = _now()
+        build.save()
+        tail = "\n".join(build.log.strip().splitlines()[-15:])
+        raise BuildError(f"build of target {target.name!r} at {info['commit'][:12]} failed: {exc} "
+                         f"(log: {log_path})\n{tail}") from None
+    (folder / DONE_MARKER).write_text(json.dumps({"commit": info["commit"], "executable": executable}))
+    build.status = Build.Status.COMPLETE
+    build.executable = json.dumps(executable)
+    build.environment = environment
+    build.log = _read_text(log_path)
+    build.finished = _now()
+    build.save()
+    # A new binary makes every earlier result of this target outdated (thesis 4.3.4); a forced rebuild
+    # of the same commit replaces the binary too.
+    earlier = Run.objects.filter(target=target_row, machine=machine).exclude(state=Run.State.OUTDATED)
+    if not force:
+        earlier = earlier.exclude(build=build)
+    earlier.update(state=Run.State.OUTDATED)
+    return build
+
+
+def _read_text(path: Path) -> str:
+    try:
+        return path.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return ""
+
+
+def _build_dem(target: TargetDefinition, commit: str, folder: Path, log_file):
+    """The bundled engine: ``engine/`` exported at the commit, run as ``python -m engine``."""
+    repo = gitrepo.open_repository(target.repository)
+    source = gitrepo.export(repo, commit, target.source_folder, folder / "src")
+    log_file.write(f"exported {target.source_folder} at {commit} from {target.repository} to {source}\n")
+    package = source.name
+    if not (source / "__main__.py").is_file():
+        raise UserError(f"{target.source_folder}/__main__.py does not exist at {commit[:12]}: not a runnable engine")
+    return [sys.executable, "-m", package], {"PYTHONPATH": str(folder / "src")}
+
+
+def _build_make(target: TargetDefinition, commit: str, folder: Path, log_file):
+    """``make <make_target> NAME=VALUE...`` in the exported source folder; the program is copied to bin/."""
+    repo = gitrepo.open_repository(target.repository)
+    gitrepo.export(repo, commit, ".", folder / "src")
+    source = folder / "src" / target.source_folder
+    if not source.is_dir():
+        raise UserError(f"source_folder {target.source_folder!r} does not exist at {commit[:12]}")
+    command = ["make", f"-j{target.make_jobs}", target.make_target,
+               *(f"{name}={value}" for name, value in target.make_variables.items())]
+    log_file.write(f"$ cd {source} && {' '.join(command)}\n")
+    log_file.flush()
+    result = subprocess.run(command, cwd=source, stdout=log_file, stderr=subprocess.STDOUT,
+                            stdin=subprocess.DEVNULL)
+    if result.returncode != 0:
+        raise UserError(f"make exited with code {result.returncode}")
+    produced = source / target.generated_executable
+    if not produced.is_file():
+        raise UserError(f"make did not produce generated_executable {target.generated_executable!r}")
+    (folder / "bin").mkdir()
+    binary = folder / "bin" / target.name
+    shutil.copy2(produced, binary)
+    log_file.write(f"installed {produced} as {binary}\n")
+    return [str(binary)], {}
+
+
+def _build_system(target: TargetDefinition, commit: str, folder: Path, log_file):
+    """An installed program; its 'commit' is the sha256 of the binary, so an upgrade is a new build."""
+    binary = _system_executable(target)
+    log_file.write(f"system executable {binary} sha256 {commit}\n")
+    return [str(binary)], {}
+
+
+RECIPES = {"dem": _build_dem, "make": _build_make, "system": _build_system}
+
+
+def build_environment(build) -> dict:
+    """The process environment to run a build's executable in."""
+    env = dict(os.environ)
+    env.update(build.environment or {})
+    return env

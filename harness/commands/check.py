@@ -1,0 +1,39 @@
+"""``harness check [TARGET ...] [--junit FILE]``: version consistency against the reference target."""
+import sys
+
+NAME = "check"
+HELP = "check version consistency of runs against the reference target; write JUnit XML"
+
+
+def configure(parser):
+    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names (default: all)")
+    parser.add_argument("--junit", metavar="FILE", help="write JUnit XML (Jenkins) to FILE")
+
+
+def run(args) -> int:
+    from harness.check import check_targets, write_junit
+    from harness.runner import format_table
+    from harness.store import setup_store
+    from harness.targets import select_targets
+
+    setup_store()
+    targets, problems = select_targets(args.targets)
+    report = check_targets(targets, args.machine)
+    report.problems[:0] = problems
+    for problem in report.problems:
+        print(f"harness: {problem}", file=sys.stderr)
+    rows = [("target", "test case", "run", "result", "consistency", "min C", "detail")]
+    for v in report.verdicts:
+        run = v.run
+        rows.append((run.target.name, run.testcase.path, run.name, v.status, run.consistency or "-",
+                     f"{run.consistency_min:.4g}" if run.consistency_min is not None else "-",
+                     (v.message or "; ".join(v.overridden))[:100]))
+    if report.verdicts:
+        print(format_table(rows))
+    if args.junit:
+        write_junit(report, args.junit)
+        print(f"JUnit XML written to {args.junit}")
+    counts = {status: sum(v.status == status for v in report.verdicts) for status in ("passed", "failed", "skipped")}
+    print(f"{len(report.verdicts)} runs: {counts['passed']} passed, {counts['failed']} failed, "
+          f"{counts['skipped']} skipped; {len(report.problems)} problems")
+    return 1 if counts["failed"] or report.problems else 0

@@ -1,0 +1,48 @@
+"""``harness run [TARGET ...] [-k PATTERN] [-j N] [--rerun-failed] [--working-tree] [--scheduler ADDRESS]``."""
+import sys
+
+NAME = "run"
+HELP = "build targets if needed and run their test cases"
+
+
+def configure(parser):
+    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names (default: all)")
+    parser.add_argument("-k", dest="pattern", metavar="PATTERN",
+                        help="only runs whose 'testcase/run' contains PATTERN (or matches it as a glob)")
+    parser.add_argument("-j", dest="jobs", type=int, default=1, metavar="N", help="runs in parallel (default 1)")
+    parser.add_argument("--rerun-failed", action="store_true", help="run failed runs again")
+    parser.add_argument("--all", dest="rerun_all", action="store_true",
+                        help="run everything again, also runs that already succeeded with this build")
+    parser.add_argument("--working-tree", action="store_true",
+                        help="take test cases from the working tree instead of testcases_revision")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="submit runs to an existing Dask distributed scheduler (tcp://host:8786); "
+                             "run folders must be on a file system the workers share")
+    parser.add_argument("--force-build", action="store_true", help="rebuild the targets first")
+
+
+def run(args) -> int:
+    from harness.runner import RunOptions, run_targets, summary_table
+    from harness.store import setup_store
+    from harness.targets import select_targets
+
+    setup_store()
+    targets, problems = select_targets(args.targets)
+    if args.jobs < 1:
+        from harness.adapters.base import UserError
+
+        raise UserError("-j must be at least 1")
+    options = RunOptions(machine=args.machine, pattern=args.pattern, jobs=args.jobs,
+                         rerun_failed=args.rerun_failed, rerun_all=args.rerun_all, working_tree=args.working_tree,
+                         scheduler=args.scheduler, force_build=args.force_build)
+    report = run_targets(targets, options)
+    report.problems[:0] = problems
+    for problem in problems:
+        print(f"harness: {problem}", file=sys.stderr)
+    if report.records:
+        print(summary_table(report.records))
+    failed = len(report.failed)
+    print(f"{len(report.records)} runs: {len(report.records) - failed} ok, {failed} failed, "
+          f"{report.skipped} already done (use --all to run them again); {len(report.problems)} problems; "
+          f"{report.elapsed:.1f} s")
+    return 1 if failed or report.problems else 0

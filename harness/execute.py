@@ -1,0 +1,288 @@
+"""Executing one run (thesis 4.3.4-4.3.5) in a fresh run folder, without touching the store.
+
+``execute(spec)`` takes a plain dict (so it can be shipped to a Dask worker), prepares the run folder (a
+copy of the test case folder, the dependency's ``post/`` copied in), runs the engine as a subprocess in its
+own session (a timeout kills the whole process tree), classifies the outcome into the run states and
+failure reasons, post-processes, writes ``run.json`` and returns that record.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import stat
+import subprocess
+import threading
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+from harness.adapters import get_adapter
+from harness.adapters.base import UserError
+from harness.gitrepo import replace_folder
+
+RECORD_FILE = "run.json"
+RECORD_VERSION = 1
+STDOUT, STDERR, POST_LOG = "stdout.txt", "stderr.txt", "post_scripts.log"
+TAIL_LINES = 60
+
+#: process groups of runs in flight in this process: run folder -> pid (killed on interrupt)
+_running: dict[str, int] = {}
+_running_lock = threading.Lock()
+
+
+def now_iso() -> str:
+    return datetime.now(timezone.utc).isoformat()
+
+
+def kill_group(pid: int, grace: float = 2.0) -> None:
+    """SIGTERM the process group, then SIGKILL what is left after ``grace`` s."""
+    try:
+        os.killpg(pid, signal.SIGTERM)
+    except ProcessLookupError:
+        return
+    deadline = time.monotonic() + grace
+    while time.monotonic() < deadline:
+        try:
+            os.killpg(pid, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.05)
+    try:
+        os.killpg(pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+
+
+def kill_all_running() -> list[str]:
+    """Kill every engine process group started by this process; returns their run folders."""
+    with _running_lock:
+        items = list(_running.items())
+    for _folder, pid in items:
+        kill_group(pid, grace=0.5)
+    return [folder for folder, _pid in items]
+
+
+def tail(path: Path, lines: int = TAIL_LINES) -> str:
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return ""
+    return "\n".join(text.splitlines()[-lines:])
+
+
+def signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
+
+
+def prepare_folder(spec: dict) -> Path:
+    """A fresh run folder holding the test case's files and the dependency's ``post/``."""
+    folder = Path(spec["folder"])
+    replace_folder(folder)
+    shutil.copytree(spec["source_folder"], folder, symlinks=True,
+                    ignore=shutil.ignore_patterns("post", RECORD_FILE, ".git"))
+    (folder / "post").mkdir(exist_ok=True)
+    dependency = spec.get("dependency_folder")
+    if dependency:
+        source = Path(dependency) / "post"
+        if source.is_dir():
+            shutil.copytree(source, folder / "post", dirs_exist_ok=True, symlinks=True)
+    return folder
+
+
+def base_record(spec: dict) -> dict:
+    keys = ("machine", "target", "target_definition", "build", "testcase", "run", "config", "folder",
+            "command", "adapter")
+    record = {key: spec.get(key) for key in keys}
+    record.update(version=RECORD_VERSION, state="not_executed", failure_reason="", failure_message="",
+                  exit_code=None, started=None, finished=None, wall_time=None, timing={}, warning_count=0,
+                  warnings=[], series=[], verdicts=[], log_tail="", stderr_tail="")
+    return record
+
+
+def write_record(record: dict) -> None:
+    folder = Path(record["folder"])
+    if folder.is_dir():
+        tmp = folder / (RECORD_FILE + ".tmp")
+        tmp.write_text(json.dumps(record, indent=1, allow_nan=False))
+        os.replace(tmp, folder / RECORD_FILE)
+
+
+def fail(record: dict, reason: str, message: str) -> dict:
+    record["state"] = "failed"
+    record["failure_reason"] = reason
+    record["failure_message"] = message
+    return record
+
+
+def _run_engine(spec: dict, folder: Path, record: dict) -> tuple[int | None, bool]:
+    """Run the command; returns (exit code, timed out)."""
+    env = dict(os.environ)
+    env.update(spec.get("environment") or {})
+    timeout = float(spec.get("timeout") or 600)
+    with open(folder / STDOUT, "wb") as out, open(folder / STDERR, "wb") as err:
+        try:
+            process = subprocess.Popen(spec["command"], cwd=folder, env=env, stdout=out, stderr=err,
+                                       stdin=subprocess.DEVNULL, start_new_session=True)
+        except OSError as exc:
+            err.write(f"cannot start {spec['command'][0]}: {exc.strerror}\n".encode())
+            return 127, False
+        with _running_lock:
+            _running[str(folder)] = process.pid
+        try:
+            try:
+                return process.wait(timeout=timeout), False
+            except subprocess.TimeoutExpired:
+                kill_group(process.pid)
+                process.wait()
+                return process.returncode, True
+        finally:
+            # the engine may have left children behind (mpirun's ranks): they go with the group
+            try:
+                os.killpg(process.pid, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
+            with _running_lock:
+                _running.pop(str(folder), None)
+
+
+def _run_post_scripts(spec: dict, folder: Path, record: dict) -> bool:
+    """Run the post scripts in order in the run folder (thesis 4.3.5); False if one failed."""
+    env = dict(os.environ)
+    env.update(spec.get("environment") or {})
+    with open(folder / POST_LOG, "ab") as log:
+        for script in spec["config"].get("post_scripts", []):
+            path = folder / script
+            if not path.is_file():
+                fail(record, "post_script", f"post script {script!r} not found")
+                return False
+            with open(path, "rb") as handle:
+                if handle.read(2) != b"#!":
+                    fail(record, "post_script", f"post script {script!r} has no shebang (#!) line")
+                    return False
+            # git archive and copies keep the mode; a script checked in without +x still has a shebang
+            path.chmod(path.stat().st_mode | stat.S_IXUSR)
+            log.write(f"$ {script}\n".encode())
+            log.flush()
+            try:
+                result = subprocess.run([str(path.resolve())], cwd=folder, env=env, stdout=log,
+                                        stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
+                                        timeout=float(spec.get("timeout") or 600), start_new_session=True)
+            except subprocess.TimeoutExpired:
+                fail(record, "post_script", f"post script {script!r} timed out")
+                return False
+            except OSError as exc:
+                fail(record, "post_script", f"post script {script!r} cannot start: {exc.strerror}")
+                return False
+            log.write(result.stderr)
+            if result.returncode != 0:
+                last = result.stderr.decode("utf-8", "replace").strip().splitlines()[-1:] or [""]
+                how = (f"was killed by {signal_name(-result.returncode)}" if result.returncode < 0
+                       else f"exited with code {result.returncode}")
+                fail(record, "post_script", f"post script {script!r} {how}: {last[0]}".rstrip(": "))
+                return False
+    return True
+
+
+def _classify(record: dict, code: int | None, timed_out: bool, scan, timeout: float) -> None:
+    errors = scan.errors
+    detail = f": {errors[-1]}" if errors else ""
+    if timed_out:
+        fail(record, "timeout", f"timed out after {timeout:g} s (process tree killed)")
+    elif code is not None and code < 0:
+        fail(record, "signal", f"killed by {signal_name(-code)}{detail}")
+    elif code:
+        if not detail and record["stderr_tail"].strip():
+            detail = ": " + record["stderr_tail"].strip().splitlines()[-1][:300]
+        fail(record, "exit_code", f"exit code {code}{detail}")
+    elif errors:
+        fail(record, "error_line", f"exit code 0 but the log has an error: {errors[0]}")
+
+
+def execute(spec: dict) -> dict:
+    """Run one run configuration; returns the run record (also written to ``run.json``)."""
+    record = base_record(spec)
+    adapter = get_adapter(spec["adapter"])
+    try:
+        folder = prepare_folder(spec)
+    except OSError as exc:
+        record["finished"] = now_iso()
+        return fail(record, "config", f"cannot prepare run folder {spec['folder']}: {exc}")
+    record["started"] = now_iso()
+    start = time.perf_counter()
+    code, timed_out = _run_engine(spec, folder, record)
+    record["wall_time"] = time.perf_counter() - start
+    record["finished"] = now_iso()
+    record["exit_code"] = code
+    record["stderr_tail"] = tail(folder / STDERR, 20)
+    record["log_tail"] = tail(folder / adapter.log_file()) or tail(folder / STDOUT)
+    scan = adapter.scan_log(folder)
+    from harness.adapters.dem import scan_lines
+
+    stderr_scan = scan_lines(record["stderr_tail"])
+    scan.errors += [line for line in stderr_scan.errors if line not in scan.errors]
+    record["warning_count"] = len(scan.warnings)
+    record["warnings"] = scan.warnings[:50]
+    record["timing"] = adapter.read_timing(folder)
+    _classify(record, code, timed_out, scan, float(spec.get("timeout") or 600))
+    try:
+        postprocess_run(spec, folder, record, adapter)
+    except Exception as exc:  # noqa: BLE001 - a post-processing bug must not lose the run
+        if record["state"] != "failed":
+            fail(record, "post_processing", f"{type(exc).__name__}: {exc}")
+    write_record(record)
+    return record
+
+
+def postprocess_run(spec: dict, folder: Path, record: dict, adapter) -> None:
+    """Thermo (kept even for failed runs), then for successful runs post scripts, data, VTK, acceptance."""
+    from harness.postprocess import frame_to_series, non_finite_columns, read_declared, vtk_aggregates
+
+    config = spec["config"]
+    mapping = spec.get("thermo_columns") or None
+    thermo = None
+    try:
+        thermo = adapter.read_thermo(folder, mapping)
+    except UserError as exc:
+        if record["state"] != "failed":
+            fail(record, "missing_output", str(exc))
+    if thermo is not None:
+        record["series"].append(frame_to_series("thermo", "thermo", thermo, "step"))
+        bad = non_finite_columns(thermo)
+        if bad and record["state"] != "failed":
+            fail(record, "non_finite", f"non-finite values in thermo column(s) {', '.join(bad)}")
+    if record["state"] == "failed":
+        return
+    record["state"] = "executed"
+    if not _run_post_scripts(spec, folder, record):
+        return
+    try:
+        frames, stored = read_declared(folder, config.get("data") or {})
+        files = adapter.vtk_files(folder)
+        if files:
+            density = (config.get("vtk") or {}).get("density")
+            dumps = vtk_aggregates(files, density)
+            record["series"].append(frame_to_series("vtk", "dumps", dumps, "step",
+                                                    {"files": [str(p.relative_to(folder)) for p in files]}))
+    except UserError as exc:
+        fail(record, "post_processing", str(exc))
+        return
+    record["series"].extend(stored)
+    frames["thermo"] = thermo
+    try:
+        from harness import acceptance
+    except ImportError:
+        acceptance = None
+    if acceptance is not None and ("expectations" in config or "stability" in config):
+        verdicts = acceptance.evaluate(config, frames, folder)
+        record["verdicts"] = [{"ok": bool(v.ok), "reason": v.reason, "message": v.message} for v in verdicts]
+        bad = [v for v in verdicts if not v.ok]
+        if bad:
+            reason = bad[0].reason if bad[0].reason in ("expectation", "stability") else "expectation"
+            fail(record, reason, "; ".join(v.message for v in bad))
+            return
+    record["state"] = "post_processed"

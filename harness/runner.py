@@ -1,0 +1,357 @@
+"""``harness run``: plan the runs of targets, execute them in parallel, record them in the store.
+
+Runs execute in a local thread pool (each run is an engine subprocess) or on an existing Dask distributed
+scheduler (``--scheduler ADDRESS``; the run folders must then be on a file system the workers share). The
+store is written only here, in the main thread, as runs finish. A run is marked in flight (not executed,
+with a start time) before it is submitted; Ctrl-C or SIGTERM kills the engines and records the runs in
+flight as failed with reason ``interrupted``; the next ``harness run`` picks them up again.
+"""
+from __future__ import annotations
+
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+import time
+from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor
+from concurrent.futures import wait as wait_futures
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+from harness import execute as ex
+from harness.adapters import get_adapter
+from harness.adapters.base import UserError
+from harness.builds import build_target
+from harness.paths import runs_dir
+from harness.targets import TargetDefinition
+from harness.testcases import CONFIG_RUN, RunEntry, TestCaseSpec, discover, matches
+
+SUCCESS_STATES = ("executed", "post_processed", "consistency_checked")
+
+
+@dataclass
+class RunOptions:
+    machine: str
+    pattern: str | None = None
+    jobs: int = 1
+    rerun_failed: bool = False
+    rerun_all: bool = False
+    working_tree: bool = False
+    scheduler: str | None = None
+    force_build: bool = False
+
+
+@dataclass
+class Task:
+    key: tuple[str, str, str]          # (target, test case path, run name)
+    spec: dict
+    depends_on: tuple | None = None
+    dependency_folder: str | None = None
+
+
+@dataclass
+class RunReport:
+    records: list[dict] = field(default_factory=list)
+    problems: list[str] = field(default_factory=list)
+    skipped: int = 0
+    elapsed: float = 0.0
+
+    @property
+    def failed(self) -> list[dict]:
+        return [r for r in self.records if r["state"] == "failed"]
+
+
+@lru_cache(maxsize=None)
+def _is_open_mpi(launcher: str) -> bool:
+    path = shutil.which(launcher)
+    if not path:
+        return False
+    try:
+        out = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=20)
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return "Open MPI" in (out.stdout + out.stderr) or "OpenRTE" in (out.stdout + out.stderr)
+
+
+def mpi_prefix(target: TargetDefinition, config: dict) -> list[str] | None:
+    """Launcher prefix for mpi runs (thesis listing 4.3: ``mpirun -np 4``).
+
+    Open MPI refuses to start as root and to place more ranks than cores; in a container (root, few cores)
+    ``--allow-run-as-root`` and ``--oversubscribe`` are added, and only then.
+    """
+    run_type = config.get("type", "serial")
+    if run_type == "serial":
+        return None
+    launcher = list(target.mpi_launcher)
+    if run_type == "mpi/custom":
+        options = config.get("mpi_options", [])
+        return launcher + (shlex.split(options) if isinstance(options, str) else [str(o) for o in options])
+    nprocs = int(config["nprocs"])
+    extra = []
+    if _is_open_mpi(launcher[0]):
+        if os.geteuid() == 0:
+            extra.append("--allow-run-as-root")
+        if nprocs > (os.cpu_count() or 1):
+            extra.append("--oversubscribe")
+    return launcher + extra + ["-np", str(nprocs)]
+
+
+def run_folder(machine: str, target: str, testcase: str, run: str) -> Path:
+    return runs_dir() / machine / target / testcase / run
+
+
+def _build_info(build) -> dict:
+    import json
+
+    return {"id": build.id, "commit": build.commit, "revision": build.revision,
+            "definition_hash": build.definition_hash, "executable": json.loads(build.executable or "[]"),
+            "environment": build.environment or {}, "folder": build.folder,
+            "committed_at": build.committed_at.isoformat() if build.committed_at else None,
+            "commit_message": build.commit_message}
+
+
+def make_spec(target: TargetDefinition, build_info: dict, adapter, machine: str, testcase: TestCaseSpec,
+              entry: RunEntry) -> dict:
+    config = entry.config
+    mapping = dict(target.thermo_columns)
+    mapping.update(config.get("thermo_columns") or {})
+    variables = {str(k): v for k, v in (config.get("variables") or {}).items()}
+    spec = {
+        "machine": machine, "target": target.name, "target_definition": target.as_dict(),
+        "build": build_info, "testcase": testcase.path, "run": entry.name, "config": config,
+        "adapter": adapter.name, "thermo_columns": mapping, "environment": build_info["environment"],
+        "folder": str(run_folder(machine, target.name, testcase.path, entry.name)),
+        "source_folder": str(testcase.folder), "timeout": entry.timeout, "command": [],
+    }
+    if entry.script is not None and not entry.problems:
+        spec["command"] = adapter.command(build_info["executable"], entry.script, variables, adapter.log_file(),
+                                          mpi_prefix(target, config))
+    return spec
+
+
+def _needs_run(existing, options: RunOptions) -> bool:
+    if existing is None or options.rerun_all:
+        return True
+    if existing.state in ("not_executed", "outdated"):
+        return True
+    if existing.state == "failed":
+        return options.rerun_failed or existing.failure_reason in ("interrupted", "dependency")
+    return False
+
+
+def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport, say) -> list[Task]:
+    """Build the target, discover its test cases and choose the runs to execute."""
+    from harness.models import Run
+
+    build = build_target(target, options.machine, force=options.force_build, log=say)
+    adapter = get_adapter(target.engine)
+    testcases, problems = discover(target, adapter, options.working_tree)
+    report.problems.extend(problems)
+    info = _build_info(build)
+    existing = {(r.testcase.path, r.name): r for r in
+                Run.objects.filter(machine__name=options.machine, build=build).select_related("testcase")}
+    tasks: dict[tuple, Task] = {}
+
+    def add(testcase: TestCaseSpec, entry: RunEntry, force: bool = False) -> None:
+        key = (target.name, testcase.path, entry.name)
+        if key in tasks:
+            return
+        spec = make_spec(target, info, adapter, options.machine, testcase, entry)
+        previous = existing.get((testcase.path, entry.name))
+        if entry.problems:
+            report.problems.extend(entry.problems)
+            record = ex.fail(ex.base_record(spec), "config", "; ".join(entry.problems))
+            record["finished"] = ex.now_iso()
+            tasks[key] = Task(key, spec)
+            tasks[key].spec["_record"] = record
+            return
+        if not (force or _needs_run(previous, options)):
+            report.skipped += 1
+            return
+        dependency = testcase.run(entry.depends_on) if entry.depends_on else None
+        task = Task(key, spec)
+        if dependency is not None:
+            dep_key = (target.name, testcase.path, dependency.name)
+            dep_previous = existing.get((testcase.path, dependency.name))
+            if dep_key in tasks or _needs_run(dep_previous, options) or dep_previous.state not in SUCCESS_STATES:
+                add(testcase, dependency, force=True)
+                task.depends_on = dep_key
+            else:
+                task.dependency_folder = dep_previous.folder
+        tasks[key] = task
+
+    for testcase in testcases:
+        for entry in testcase.runs:
+            if matches(options.pattern, testcase.path, entry.name) or (
+                    entry.name == CONFIG_RUN and matches(options.pattern, testcase.path, "")):
+                add(testcase, entry)
+    return list(tasks.values())
+
+
+class _Pool:
+    """A local thread pool or a Dask distributed client behind one small interface."""
+
+    def __init__(self, jobs: int, scheduler: str | None):
+        self.client = None
+        if scheduler:
+            try:
+                from distributed import Client
+            except ImportError:
+                raise UserError("--scheduler needs the 'distributed' package (pip install 'dask[distributed]')") \
+                    from None
+            try:
+                self.client = Client(scheduler, timeout=10)
+            except OSError as exc:
+                raise UserError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
+            self.slots = max(jobs, sum(self.client.nthreads().values()) or 1)
+        else:
+            self.executor = ThreadPoolExecutor(max_workers=max(1, jobs))
+            self.slots = max(1, jobs)
+
+    def submit(self, spec: dict):
+        if self.client is not None:
+            return self.client.submit(ex.execute, spec, pure=False)
+        return self.executor.submit(ex.execute, spec)
+
+    def wait_any(self, futures):
+        if self.client is not None:
+            from distributed import wait
+
+            return wait(list(futures), return_when="FIRST_COMPLETED").done
+        return wait_futures(list(futures), return_when=FIRST_COMPLETED).done
+
+    def cancel(self, futures):
+        for future in futures:
+            future.cancel()
+
+    def close(self):
+        if self.client is not None:
+            self.client.close()
+        else:
+            self.executor.shutdown(wait=True, cancel_futures=True)
+
+
+def _progress(done: int, total: int, record: dict, out) -> None:
+    reason = f" ({record['failure_reason']}: {record['failure_message'][:120]})" if record["state"] == "failed" \
+        else ""
+    wall = f" {record['wall_time']:.2f} s" if record.get("wall_time") is not None else ""
+    width = 20
+    bar = "#" * (width * done // max(total, 1))
+    out.write(f"[{bar:<{width}}] {done}/{total} {record['target']} {record['testcase']}/{record['run']}: "
+              f"{record['state']}{reason}{wall}\n")
+    out.flush()
+
+
+def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out=sys.stderr) -> None:
+    from harness.records import store_record
+
+    total = len(tasks)
+    done_count = 0
+    results: dict[tuple, dict] = {}
+
+    def finish(record: dict) -> None:
+        nonlocal done_count
+        store_record(record)
+        report.records.append(record)
+        results[tuple((record["target"], record["testcase"], record["run"]))] = record
+        done_count += 1
+        _progress(done_count, total, record, out)
+
+    pending = []
+    for task in tasks:
+        if "_record" in task.spec:
+            record = task.spec.pop("_record")
+            finish(record)
+        else:
+            pending.append(task)
+    if not pending:
+        return
+    planned = {task.key for task in tasks}
+    pool = _Pool(options.jobs, options.scheduler)
+    running: dict = {}
+    try:
+        while pending or running:
+            for task in list(pending):
+                if len(running) >= pool.slots:
+                    break
+                if task.depends_on is not None:
+                    dep = results.get(task.depends_on)
+                    if dep is None and task.depends_on in planned:
+                        continue
+                    if dep is None:
+                        dep = {"state": "not_executed", "failure_reason": ""}
+                    pending.remove(task)
+                    if dep["state"] not in SUCCESS_STATES:
+                        record = ex.fail(ex.base_record(task.spec), "dependency",
+                                         f"dependency {task.depends_on[2]!r} {dep['state']}"
+                                         + (f" ({dep['failure_reason']})" if dep["failure_reason"] else ""))
+                        record["finished"] = ex.now_iso()
+                        finish(record)
+                        continue
+                    task.spec["dependency_folder"] = dep["folder"]
+                else:
+                    pending.remove(task)
+                    if task.dependency_folder:
+                        task.spec["dependency_folder"] = task.dependency_folder
+                in_flight = ex.base_record(task.spec)
+                in_flight["started"] = ex.now_iso()
+                store_record(in_flight)
+                running[pool.submit(task.spec)] = task
+            if not running:
+                continue
+            for future in pool.wait_any(running):
+                task = running.pop(future)
+                try:
+                    record = future.result()
+                except Exception as exc:  # noqa: BLE001 - a harness bug in one run must not stop the rest
+                    record = ex.fail(ex.base_record(task.spec), "post_processing",
+                                     f"harness error: {type(exc).__name__}: {exc}")
+                    record["finished"] = ex.now_iso()
+                finish(record)
+    except KeyboardInterrupt:
+        ex.kill_all_running()
+        pool.cancel(running)
+        for task in running.values():
+            record = ex.fail(ex.base_record(task.spec), "interrupted", "the harness was interrupted")
+            record["finished"] = ex.now_iso()
+            ex.write_record(record)
+            store_record(record)
+            report.records.append(record)
+        raise
+    finally:
+        pool.close()
+
+
+def run_targets(targets: list[TargetDefinition], options: RunOptions, out=sys.stderr) -> RunReport:
+    """Build, plan and execute; problems (bad files, failed builds) are reported and the rest goes on."""
+    report = RunReport()
+    tasks: list[Task] = []
+    say = (lambda text: (out.write(text + "\n"), out.flush()))
+    for target in targets:
+        try:
+            tasks.extend(plan_target(target, options, report, say))
+        except UserError as exc:
+            report.problems.append(str(exc))
+    for problem in report.problems:
+        out.write(f"harness: {problem}\n")
+    started = time.perf_counter()
+    execute_tasks(tasks, options, report, out)
+    report.elapsed = time.perf_counter() - started
+    return report
+
+
+def summary_table(records: list[dict]) -> str:
+    rows = [("target", "test case", "run", "state", "reason", "wall s")]
+    for r in sorted(records, key=lambda r: (r["target"], r["testcase"], r["run"])):
+        rows.append((r["target"], r["testcase"], r["run"], r["state"], r["failure_reason"] or "",
+                     f"{r['wall_time']:.2f}" if r.get("wall_time") is not None else "-"))
+    return format_table(rows)
+
+
+def format_table(rows: list[tuple]) -> str:
+    widths = [max(len(str(row[i])) for row in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(str(cell).ljust(width) for cell, width in zip(row, widths)).rstrip() for row in rows]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)

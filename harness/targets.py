@@ -1,0 +1,229 @@
+"""Target definitions: ``targets/NAME.json`` after the thesis' listings 4.1 and 4.10.
+
+A target is a named build of a DEM code at a git revision. Fields (all optional unless stated):
+
+``repository``
+    path or URL of the git repository; relative paths are relative to the folder holding the ``targets/``
+    folder (the project checkout). Default: the repository the target file is in (this project's).
+``revision``
+    tag, branch, commit or ``HEAD`` (default ``HEAD``); GitPython resolves it to a commit.
+``recipe``
+    how to build: ``dem`` (the bundled engine, ``engine/`` exported at the commit), ``make``
+    (``make <make_target>`` in ``source_folder``) or ``system`` (an installed ``executable``). Inferred from
+    ``make_target`` / ``executable`` when absent, else ``dem``.
+``source_folder``
+    folder inside the repository that is built (``dem``: default ``engine``; ``make``: default ``.``).
+``make_target``, ``make_variables``, ``generated_executable``
+    for ``make``: ``make <make_target> NAME=VALUE...``; the program it leaves in ``source_folder``.
+``executable``
+    for ``system``: an absolute path or a name looked up on PATH (e.g. ``/usr/bin/liggghts``).
+``engine``
+    the engine adapter (``dem``, ``liggghts``); default ``dem``.
+``testcases``
+    list of test case folders, relative to the test case repository root, or absolute folders (read as they
+    are, no git); default ``["testcases"]``.
+``testcases_repository``
+    default: ``repository`` (the project's own repository for ``system`` targets).
+``testcases_revision``
+    revision the test cases are exported at; ``working-tree`` reads the checkout as it is. Default: the
+    target's ``revision``, or ``working-tree`` when that is ``HEAD``.
+``reference``
+    name of the target this one is compared against (thesis listing 4.10).
+``thermo_columns``
+    mapping of the harness' thermo names onto the engine's column names, e.g. ``{"ke": "KinEng"}``.
+``mpi_launcher``
+    launcher prefix for mpi runs (default ``["mpirun"]``).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from harness.adapters.base import UserError
+from harness.jsonfile import Problems, expect_type, json_path, load_json
+from harness.paths import PROJECT_ROOT
+
+WORKING_TREE = "working-tree"
+RECIPES = ("dem", "make", "system")
+KNOWN_KEYS = {
+    "repository", "revision", "recipe", "source_folder", "make_target", "make_variables", "make_jobs",
+    "generated_executable", "executable", "engine", "testcases", "testcases_repository", "testcases_revision",
+    "reference", "thermo_columns", "mpi_launcher", "description",
+}
+#: fields that change the binary; the build cache is keyed by their hash and the commit
+BUILD_KEYS = ("repository", "recipe", "source_folder", "make_target", "make_variables", "generated_executable",
+              "executable")
+
+
+def targets_dir() -> Path:
+    return Path(os.environ.get("HARNESS_TARGETS", PROJECT_ROOT / "targets")).expanduser().resolve()
+
+
+@dataclass
+class TargetDefinition:
+    name: str
+    path: Path
+    raw: dict
+    repository: str
+    revision: str
+    recipe: str
+    source_folder: str
+    engine: str
+    testcases: list[str]
+    testcases_repository: str
+    testcases_revision: str
+    reference: str | None = None
+    make_target: str | None = None
+    make_variables: dict = field(default_factory=dict)
+    make_jobs: int = 1
+    generated_executable: str | None = None
+    executable: str | None = None
+    thermo_columns: dict = field(default_factory=dict)
+    mpi_launcher: list[str] = field(default_factory=lambda: ["mpirun"])
+
+    @property
+    def definition_hash(self) -> str:
+        """sha256 of the build-relevant fields (the build cache key together with the commit)."""
+        relevant = {key: getattr(self, key) for key in BUILD_KEYS}
+        return hashlib.sha256(json.dumps(relevant, sort_keys=True).encode()).hexdigest()
+
+    def as_dict(self) -> dict:
+        return dict(self.raw)
+
+
+def _enclosing_repository(path: Path) -> Path:
+    """The git checkout holding ``path`` (the project's own repository for ``targets/*.json``)."""
+    for folder in [path.resolve().parent, *path.resolve().parents]:
+        if (folder / ".git").exists():
+            return folder
+    return PROJECT_ROOT
+
+
+def _resolve_repository(value: str | None, base: Path) -> str:
+    if not value:
+        return str(_enclosing_repository(base / "targets"))
+    if "://" in value or value.startswith("git@"):
+        return value
+    path = Path(value).expanduser()
+    return str(path if path.is_absolute() else (base / path).resolve())
+
+
+def parse_target(name: str, data, path: Path) -> TargetDefinition:
+    """Validate a target definition; every problem names the file and the JSON path."""
+    problems = Problems(path)
+    if not isinstance(data, dict):
+        problems.add("$", "a target definition must be a JSON object")
+        problems.raise_if_any()
+    for key in sorted(set(data) - KNOWN_KEYS):
+        problems.add(json_path(key), f"unknown field (known: {', '.join(sorted(KNOWN_KEYS))})")
+    for key in ("repository", "revision", "recipe", "source_folder", "make_target", "generated_executable",
+                "executable", "engine", "testcases_repository", "testcases_revision", "reference", "description"):
+        if key in data:
+            expect_type(problems, json_path(key), data[key], str, "a string")
+    recipe = data.get("recipe") or ("make" if "make_target" in data else "system" if "executable" in data
+                                    else "dem")
+    if recipe not in RECIPES:
+        problems.add(json_path("recipe"), f"unknown recipe {recipe!r} (known: {', '.join(RECIPES)})")
+    if recipe == "make":
+        for key in ("make_target", "generated_executable"):
+            if key not in data:
+                problems.add(json_path(key), "required for the make recipe")
+    if recipe == "system" and "executable" not in data:
+        problems.add(json_path("executable"), "required for the system recipe")
+    testcases = data.get("testcases", ["testcases"])
+    if expect_type(problems, json_path("testcases"), testcases, list, "a list of folders"):
+        for i, item in enumerate(testcases):
+            expect_type(problems, json_path("testcases", i), item, str, "a folder (string)")
+    for key in ("make_variables", "thermo_columns"):
+        if key in data and expect_type(problems, json_path(key), data[key], dict, "an object"):
+            for sub, value in data[key].items():
+                expect_type(problems, json_path(key, sub), value, (str, int, float), "a string or number")
+    if "make_jobs" in data and expect_type(problems, json_path("make_jobs"), data["make_jobs"], int, "an integer"):
+        if data["make_jobs"] < 1:
+            problems.add(json_path("make_jobs"), "must be at least 1")
+    launcher = data.get("mpi_launcher", ["mpirun"])
+    if expect_type(problems, json_path("mpi_launcher"), launcher, list, "a list of strings"):
+        for i, item in enumerate(launcher):
+            expect_type(problems, json_path("mpi_launcher", i), item, str, "a string")
+    if data.get("reference") == name:
+        problems.add(json_path("reference"), "a target cannot be its own reference")
+    problems.raise_if_any()
+
+    base = path.resolve().parent.parent
+    revision = data.get("revision", "HEAD")
+    repository = _resolve_repository(data.get("repository"), base)
+    testcases_revision = data.get("testcases_revision") or (WORKING_TREE if revision == "HEAD" else revision)
+    return TargetDefinition(
+        name=name, path=path, raw=data, repository=repository, revision=revision, recipe=recipe,
+        source_folder=data.get("source_folder", "engine" if recipe == "dem" else "."),
+        engine=data.get("engine", "dem"), testcases=list(testcases),
+        testcases_repository=_resolve_repository(data.get("testcases_repository"), base)
+        if data.get("testcases_repository") else repository,
+        testcases_revision=testcases_revision, reference=data.get("reference"),
+        make_target=data.get("make_target"), make_variables={k: str(v) for k, v in
+                                                              data.get("make_variables", {}).items()},
+        make_jobs=data.get("make_jobs", 1), generated_executable=data.get("generated_executable"),
+        executable=data.get("executable"), thermo_columns=dict(data.get("thermo_columns", {})),
+        mpi_launcher=list(launcher),
+    )
+
+
+def load_target_file(path: Path) -> TargetDefinition:
+    path = Path(path)
+    return parse_target(path.stem, load_json(path), path)
+
+
+def load_targets(folder: Path | None = None) -> tuple[dict[str, TargetDefinition], list[str]]:
+    """All targets in ``folder`` (default ``targets_dir()``) and the problems of the ones that failed.
+
+    A target whose reference is unknown is reported and left out; the others are kept.
+    """
+    folder = Path(folder) if folder else targets_dir()
+    targets: dict[str, TargetDefinition] = {}
+    problems: list[str] = []
+    for path in sorted(folder.glob("*.json")) if folder.is_dir() else []:
+        try:
+            targets[path.stem] = load_target_file(path)
+        except UserError as exc:
+            problems.append(str(exc))
+    for name, target in list(targets.items()):
+        if target.reference and target.reference not in targets:
+            problems.append(f"{target.path}: $.reference: unknown target {target.reference!r}")
+            del targets[name]
+    return targets, problems
+
+
+def select_targets(names: list[str], folder: Path | None = None) -> tuple[list[TargetDefinition], list[str]]:
+    """Targets by name (or path to a ``.json`` file); all targets when ``names`` is empty.
+
+    A named target that does not exist is a UserError; broken target files are returned as problems.
+    """
+    all_targets, problems = load_targets(folder)
+    if not names:
+        return list(all_targets.values()), problems
+    chosen = []
+    for name in names:
+        if name.endswith(".json") and Path(name).is_file():
+            chosen.append(load_target_file(Path(name)))
+        elif name in all_targets:
+            chosen.append(all_targets[name])
+        else:
+            broken = [p for p in problems if Path(p.split(":")[0]).stem == name]
+            if broken:
+                raise UserError(broken[0])
+            known = ", ".join(sorted(all_targets)) or "none"
+            raise UserError(f"unknown target {name!r} (known in {folder or targets_dir()}: {known})")
+    return chosen, problems
+
+
+def reference_of(target: TargetDefinition, folder: Path | None = None) -> TargetDefinition | None:
+    """The reference target's definition (from the same folder as ``target``), or None."""
+    if not target.reference:
+        return None
+    path = target.path.parent / f"{target.reference}.json"
+    if not path.is_file():
+        raise UserError(f"{target.path}: $.reference: unknown target {target.reference!r}")
+    return load_target_file(path)
