@@ -10,7 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from django.db import models
-from django.db.models import Count, Exists, Min, OuterRef, Q, Sum
+from django.db.models import Count, Exists, Min, OuterRef, Q, Sum, Value
+from django.db.models.functions import Concat
 
 #: run states whose execution succeeded (thesis 4.3.4: executed, post-processed, checked)
 SUCCESS_STATES = ("executed", "post_processed", "consistency_checked")
@@ -49,7 +50,11 @@ def accepted_expression():
     from harness.models import ConsistencyResult, Override
 
     whole_run = Exists(Override.objects.filter(run=OuterRef("pk"), quantity=""))
-    quantity_override = Override.objects.filter(run=OuterRef("run_id"), quantity=OuterRef("quantity"))
+    # the same keys `harness check` honours: "ke", "torqueZ:torque", "torqueZ.torque"
+    quantity_override = Override.objects.filter(run=OuterRef("run_id")).filter(
+        Q(quantity=OuterRef("quantity"))
+        | Q(quantity=Concat(OuterRef("series_name"), Value(":"), OuterRef("quantity")))
+        | Q(quantity=Concat(OuterRef("series_name"), Value("."), OuterRef("quantity"))))
     unaccepted_bad = ConsistencyResult.objects.filter(run=OuterRef("pk")).exclude(
         level__in=CONSISTENT_LEVELS).exclude(Exists(quantity_override))
     all_bad_overruled = Q(consistency="inconsistent") & ~Exists(unaccepted_bad)

@@ -12,5 +12,10 @@ class OverrideForm(forms.Form):
 
     def __init__(self, run, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        bad = sorted({r.quantity for r in run.consistency_results.all() if r.level not in ("perfect", "good")})
+        bad = sorted({quantity_key(r) for r in run.consistency_results.all() if r.level not in ("perfect", "good")})
         self.fields["quantity"].choices = [("", "the whole run")] + [(q, f"quantity {q}") for q in bad]
+
+
+def quantity_key(result) -> str:
+    """How an override names a quantity, as `harness check` reads it: "ke" (thermo), "torqueZ:torque"."""
+    return result.quantity if result.series_kind == "thermo" else f"{result.series_name}:{result.quantity}"

@@ -67,7 +67,12 @@ class RunFolder:
 
     def script_name(self) -> str | None:
         config = self.run.config if isinstance(self.run.config, dict) else {}
-        names = [config.get(k) for k in SCRIPT_KEYS if isinstance(config.get(k), str)]
+        names = []
+        for key in SCRIPT_KEYS:
+            value = config.get(key)
+            # a script per engine family ({"dem": "scene.json", "liggghts": "in.scene"}): the one present
+            names += [value] if isinstance(value, str) else [v for v in value.values() if isinstance(v, str)] \
+                if isinstance(value, dict) else []
         found = self._first(names)
         if found or not self.exists():
             return found

@@ -1,0 +1,76 @@
+"""Production settings pass Django's deployment checks; `harness serve` serves the dashboard."""
+from __future__ import annotations
+
+import argparse
+import os
+import secrets
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+
+from harness.commands import serve
+from harness.paths import PROJECT_ROOT
+
+
+def env_for(tmp_path, **extra):
+    env = {k: v for k, v in os.environ.items() if k not in ("DJANGO_SETTINGS_MODULE", "HARNESS_DATABASE_URL")}
+    env.update(HARNESS_HOME=str(tmp_path / "home"), PYTHONPATH=str(PROJECT_ROOT), **extra)
+    return env
+
+
+def manage(tmp_path, *args, **extra):
+    return subprocess.run([sys.executable, "manage.py", *args], cwd=PROJECT_ROOT, capture_output=True,
+                          text=True, env=env_for(tmp_path, **extra), timeout=120)
+
+
+def test_check_deploy_is_clean(tmp_path):
+    done = manage(tmp_path, "check", "--deploy", "--fail-level", "WARNING",
+                  "--settings", "webfrontend.settings_production",
+                  HARNESS_SECRET_KEY=secrets.token_urlsafe(64), HARNESS_ALLOWED_HOSTS="harness.example.org")
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "System check identified no issues" in done.stdout
+
+
+def test_production_refuses_the_development_key(tmp_path):
+    done = manage(tmp_path, "check", "--settings", "webfrontend.settings_production")
+    assert done.returncode != 0
+    assert "HARNESS_SECRET_KEY: set 50 or more random characters for production" in done.stderr
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_harness_serve_serves_the_dashboard(tmp_path):
+    parser = argparse.ArgumentParser()
+    serve.configure(parser)
+    assert serve.NAME == "serve" and serve.HELP
+    port = free_port()
+    code = ("import argparse, sys; from harness.commands import serve; p = argparse.ArgumentParser(); "
+            f"serve.configure(p); sys.exit(serve.run(p.parse_args(['--port', '{port}'])))")
+    process = subprocess.Popen([sys.executable, "-c", code], cwd=tmp_path, env=env_for(tmp_path),
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
+    try:
+        body = None
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and body is None:
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=5) as response:
+                    body = response.read().decode()
+                    css = urllib.request.urlopen(f"http://127.0.0.1:{port}/static/webfrontend/style.css",
+                                                 timeout=5).read()
+            except OSError:
+                assert process.poll() is None, process.stdout.read().decode()
+                time.sleep(0.3)
+        assert body is not None, "server did not answer within 60 s"
+        assert "The store holds no runs yet" in body
+        assert b".bar" in css
+        assert (tmp_path / "home" / "harness.sqlite3").is_file()  # migrated before serving
+    finally:
+        os.killpg(process.pid, signal.SIGTERM)
+        process.wait(timeout=20)
