@@ -1,0 +1,754 @@
+"""The simulation: scene state, the six commands, and the run loop around the compiled kernel.
+
+Between two output steps the whole step loop runs inside compiled code (`engine.kernels`); Python only
+decides where the next output is, writes it, and checks the guards (critical time step, non-finite values,
+large overlaps, particles lost from a fixed box).
+"""
+from __future__ import annotations
+
+import json
+import math
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .contact_laws import effective_youngs_modulus
+from .errors import InputError, RunFailure
+from .kernels import COHESION_MODELS, NORMAL_MODELS, ROLLING_MODELS, TANGENTIAL_MODELS, Combination, build_kernel
+from .neighbor import overlap_statistics
+from .scene import lattice_points, parameter_table, random_packing
+from .script import Fields
+from .writers import CsvSeries, write_vtp
+
+AXES = {"x": 0, "y": 1, "z": 2}
+GLOBAL_QUANTITIES = ("step", "time", "atoms", "ke", "rke", "pe", "energy", "momentum_x", "momentum_y",
+                     "momentum_z", "com_x", "com_y", "com_z", "max_speed", "contacts", "max_overlap")
+PARTICLE_QUANTITIES = ("x", "y", "z", "vx", "vy", "vz", "fx", "fy", "fz", "omegax", "omegay", "omegaz")
+_PARTICLE_QUANTITY = re.compile(r"^(%s)\[(\d+)\]$" % "|".join(PARTICLE_QUANTITIES))
+THERMO_FIRST = ["step", "time", "atoms", "ke", "rke"]
+RESTART_FORMAT = 1
+#: overlaps above this fraction of the smaller radius are reported (issue 2)
+OVERLAP_WARN_RATIO = 0.1
+
+
+class Log:
+    """The log file (and stdout): commands echoed, WARNING lines, run summaries, a final ERROR line."""
+
+    def __init__(self, path: str | None, echo: bool = True):
+        self.handle = open(path, "w", buffering=1) if path else None
+        self.echo = echo
+        self.warnings = 0
+
+    def info(self, text: str):
+        if self.handle:
+            self.handle.write(text + "\n")
+            self.handle.flush()
+        if self.echo:
+            print(text, flush=True)
+
+    def warning(self, text: str):
+        self.warnings += 1
+        self.info("WARNING: " + text)
+
+    def close(self):
+        if self.handle:
+            self.handle.close()
+
+
+def check_quantity(name: str) -> bool:
+    return name in GLOBAL_QUANTITIES or _PARTICLE_QUANTITY.match(name) is not None
+
+
+class Simulation:
+    """One scene. Types are numbered from 1 in scripts and from 0 inside arrays (``ptype = type - 1``)."""
+
+    def __init__(self, log: Log):
+        self.log = log
+        self.lo = self.hi = None
+        self.periodic = np.zeros(3, dtype=np.bool_)
+        self.skin = 0.001  # m, the LIGGGHTS SI default
+        self.dt = None
+        self.step = 0
+        self.time = 0.0
+        self.materials: dict[int, tuple] = {}
+        self.interactions: dict[tuple, dict] = {}
+        self.model: dict | None = None
+        self.walls: list[dict] = []
+        self.plane_pos = np.zeros(0)
+        self.modifiers: dict[str, dict] = {}
+        self.active: list[str] = []
+        self.timestep_fraction = 0.2
+        self.timestep_strict = False
+        self.thermo_every = 0
+        self.thermo_columns = list(THERMO_FIRST)
+        self.thermo_file = "thermo.csv"
+        self.thermo: CsvSeries | None = None
+        self.next_id = 1
+        self.dirty = True  # forces must be recomputed before the next step
+        self.lost_total = 0
+        self.timing = dict(pair=0.0, neigh=0.0, comm=0.0, modify=0.0, output=0.0, other=0.0, total=0.0,
+                           compile=0.0, steps=0, particles=0, particle_steps=0)
+        n = 0
+        self.x = np.zeros((n, 3))
+        self.v = np.zeros((n, 3))
+        self.f = np.zeros((n, 3))
+        self.omega = np.zeros((n, 3))
+        self.torque = np.zeros((n, 3))
+        self.radius = np.zeros(n)
+        self.mass = np.zeros(n)
+        self.inv_mass = np.zeros(n)
+        self.inv_inertia = np.zeros(n)
+        self.ptype = np.zeros(n, dtype=np.int64)
+        self.pid = np.zeros(n, dtype=np.int64)
+        self.x_build = np.zeros((n, 3))
+        self.nbr_start = np.zeros(1, dtype=np.int64)
+        self.nbr_j = np.zeros(0, dtype=np.int32)
+        self.pair_hist = np.zeros((0, 0))
+        self.wall_hist = np.zeros((0, 0, 0))
+
+    # ------------------------------------------------------------------ commands
+    def execute(self, cmd: dict, index: int, script: str):
+        name = cmd.get("command")
+        label = name
+        if name == "create" and isinstance(cmd.get("object"), str):
+            label = f"create {cmd['object']}"
+        elif name in ("set", "get") and isinstance(cmd.get("property"), str):
+            label = f"{name} {cmd['property']}"
+        fields = Fields(cmd, f"{script}: command {index} ({label})")
+        self.log.info(f"command {index} ({label}): {json.dumps(cmd)}")
+        handler = getattr(self, f"cmd_{name}", None) if name in ("create", "get", "set", "fix", "unfix", "run") \
+            else None
+        if handler is None:
+            raise InputError(f"{script}: command {index}: unknown command {json.dumps(name)} "
+                             "(known: create, get, set, fix, unfix, run)")
+        handler(fields)
+        fields.finish()
+
+    def cmd_create(self, fields: Fields):
+        kind = fields.string("object", required=True,
+                             choices=("domain", "material", "interaction", "contact_model", "wall", "particle",
+                                      "lattice", "random_packing", "modifier", "restart"))
+        getattr(self, f"create_{kind}")(fields)
+
+    def create_domain(self, fields: Fields):
+        lo = np.array(fields.vector("lo", required=True))
+        hi = np.array(fields.vector("hi", required=True))
+        if np.any(hi <= lo):
+            raise fields.error("hi", "must be greater than 'lo' on every axis")
+        periodic = fields.raw("periodic", [False, False, False])
+        if not (isinstance(periodic, list) and len(periodic) == 3 and all(isinstance(p, bool) for p in periodic)):
+            raise fields.error("periodic", "must be a list of 3 booleans")
+        self.lo, self.hi = lo, hi
+        self.periodic = np.array(periodic, dtype=np.bool_)
+
+    def _type(self, fields: Fields, name="type") -> int:
+        t = fields.integer(name, required=True, minimum=1)
+        if t not in self.materials:
+            raise fields.error(name, f"names unknown material type {t} (create a material with this type first)")
+        return t
+
+    def create_material(self, fields: Fields):
+        t = fields.integer("type", required=True, minimum=1)
+        y = fields.number("youngs_modulus", required=True, positive=True)
+        nu = fields.number("poisson_ratio", required=True, minimum=0.0, maximum=0.5)
+        rho = fields.number("density", required=True, positive=True)
+        if y < 5e6:
+            self.log.warning(f"material type {t}: Young's modulus {y:g} Pa < 5e6 Pa (LIGGGHTS calls such "
+                             "particles soft and refuses them)")
+        self.materials[t] = (y, nu, rho)
+        self.dirty = True
+
+    def create_interaction(self, fields: Fields):
+        types = fields.raw("types", required=True)
+        if not (isinstance(types, list) and len(types) == 2 and all(isinstance(t, int) and not isinstance(t, bool)
+                                                                    for t in types)):
+            raise fields.error("types", f"must be a list of two material types, got {json.dumps(types)}")
+        for t in types:
+            if t not in self.materials:
+                raise fields.error("types", f"names unknown material type {t}")
+        e = fields.number("restitution", required=True)
+        if not 0.0 < e <= 1.0:
+            raise fields.error("restitution", f"must be in (0, 1], got {e:g}")
+        self.interactions[(min(types), max(types))] = dict(
+            restitution=e,
+            friction=fields.number("friction", 0.0, minimum=0.0),
+            rolling_friction=fields.number("rolling_friction", 0.0, minimum=0.0),
+            cohesion_energy_density=fields.number("cohesion_energy_density", 0.0, minimum=0.0))
+        self.dirty = True
+
+    def create_contact_model(self, fields: Fields):
+        model = dict(normal=fields.string("normal", required=True, choices=NORMAL_MODELS),
+                     tangential=fields.string("tangential", "none", choices=TANGENTIAL_MODELS),
+                     cohesion=fields.string("cohesion", "none", choices=COHESION_MODELS),
+                     rolling=fields.string("rolling", "none", choices=ROLLING_MODELS),
+                     limit_force=fields.boolean("limit_force", False),
+                     tangential_damping=fields.boolean("tangential_damping", True))
+        velocity = fields.number("characteristic_velocity", None, positive=True)
+        if model["normal"] == "hooke" and velocity is None:
+            raise fields.error("characteristic_velocity", "is missing (the Hooke model needs it, m/s)")
+        if velocity is not None and velocity < 0.01:
+            raise fields.error("characteristic_velocity", "must be >= 0.01 m/s (LIGGGHTS' limit)")
+        model["characteristic_velocity"] = velocity or 0.0
+        self.model = model
+        self.dirty = True
+
+    def create_wall(self, fields: Fields):
+        name = fields.string("name", required=True)
+        if any(w["name"] == name for w in self.walls):
+            raise fields.error("name", f"'{name}' is already a wall")
+        shape = fields.string("shape", required=True, choices=("plane", "cylinder"))
+        wall = dict(name=name, shape=shape, type=self._type(fields))
+        if shape == "plane":
+            wall["axis"] = AXES[fields.string("axis", required=True, choices=tuple(AXES))]
+            wall["position"] = fields.number("position", required=True)
+            wall["velocity"] = fields.vector("velocity", default=[0.0, 0.0, 0.0])
+        else:
+            wall["center"] = fields.vector("center", 2, required=True)
+            wall["radius"] = fields.number("radius", required=True, positive=True)
+            wall["side"] = fields.string("side", "inside", choices=("inside", "outside"))
+        self._set_walls(self.walls + [wall], fresh_history=True)
+
+    def _set_walls(self, walls, fresh_history):
+        old_positions = {w["name"]: p for w, p in zip([w for w in self.walls if w["shape"] == "plane"],
+                                                       self.plane_pos)}
+        planes = [w for w in walls if w["shape"] == "plane"]
+        cylinders = [w for w in walls if w["shape"] == "cylinder"]
+        self.walls = planes + cylinders  # wall history columns: planes first, then cylinders
+        self.plane_pos = np.array([old_positions.get(w["name"], w["position"]) for w in planes], dtype=np.float64)
+        if fresh_history:
+            self.wall_hist = np.zeros((0, 0, 0))
+        self.dirty = True
+
+    def _add_particles(self, t: int, positions, radii, velocity, omega):
+        n = len(positions)
+        if n == 0:
+            return
+        y, nu, rho = self.materials[t]
+        mass = rho * 4.0 / 3.0 * math.pi * radii ** 3
+        self.x = np.ascontiguousarray(np.vstack([self.x, positions]))
+        self.v = np.vstack([self.v, np.tile(velocity, (n, 1))])
+        self.f = np.vstack([self.f, np.zeros((n, 3))])
+        self.omega = np.vstack([self.omega, np.tile(omega, (n, 1))])
+        self.torque = np.vstack([self.torque, np.zeros((n, 3))])
+        self.radius = np.concatenate([self.radius, radii])
+        self.mass = np.concatenate([self.mass, mass])
+        self.inv_mass = np.concatenate([self.inv_mass, 1.0 / mass])
+        self.inv_inertia = np.concatenate([self.inv_inertia, 1.0 / (0.4 * mass * radii ** 2)])
+        self.ptype = np.concatenate([self.ptype, np.full(n, t - 1, dtype=np.int64)])
+        self.pid = np.concatenate([self.pid, np.arange(self.next_id, self.next_id + n, dtype=np.int64)])
+        self.x_build = np.vstack([self.x_build, positions])
+        self.next_id += n
+        self.dirty = True
+
+    def _radii(self, fields: Fields, count: int, rng=None) -> np.ndarray:
+        if fields.has("radius"):
+            return np.full(count, fields.number("radius", required=True, positive=True))
+        rmin = fields.number("radius_min", required=True, positive=True)
+        rmax = fields.number("radius_max", required=True, positive=True)
+        if rmax < rmin:
+            raise fields.error("radius_max", "must be >= radius_min")
+        return rmin + (rmax - rmin) * rng.random(count)
+
+    def _region(self, fields: Fields) -> dict:
+        region = fields.mapping("region", required=True)
+        sub = Fields(region, fields.where + ", region")
+        shape = sub.string("shape", required=True, choices=("box", "cylinder"))
+        out = {"shape": shape}
+        if shape == "box":
+            out["lo"] = sub.vector("lo", required=True)
+            out["hi"] = sub.vector("hi", required=True)
+            if any(h <= l for l, h in zip(out["lo"], out["hi"])):
+                raise sub.error("hi", "must be greater than 'lo' on every axis")
+        else:
+            out["center"] = sub.vector("center", 2, required=True)
+            out["radius"] = sub.number("radius", required=True, positive=True)
+            out["z"] = sub.vector("z", 2, required=True)
+            if out["z"][1] <= out["z"][0]:
+                raise sub.error("z", "must be [z_low, z_high] with z_high > z_low")
+        sub.finish()
+        return out
+
+    def create_particle(self, fields: Fields):
+        t = self._type(fields)
+        r = fields.number("radius", required=True, positive=True)
+        position = fields.vector("position", required=True)
+        self._add_particles(t, np.array([position]), np.array([r]), fields.vector("velocity", default=[0, 0, 0]),
+                            fields.vector("omega", default=[0, 0, 0]))
+
+    def create_lattice(self, fields: Fields):
+        t = self._type(fields)
+        r = fields.number("radius", required=True, positive=True)
+        spacing = fields.number("spacing", required=True, positive=True)
+        if spacing < 2 * r:
+            raise fields.error("spacing", f"must be >= 2 radius = {2 * r:g} m (spheres would overlap)")
+        points = lattice_points(self._region(fields), spacing, r)
+        self._add_particles(t, points, np.full(len(points), r), fields.vector("velocity", default=[0, 0, 0]),
+                            fields.vector("omega", default=[0, 0, 0]))
+        self.log.info(f"created {len(points)} particles on a lattice")
+
+    def create_random_packing(self, fields: Fields):
+        t = self._type(fields)
+        count = fields.integer("count", required=True, minimum=1)
+        seed = fields.integer("seed", required=True, minimum=0)
+        attempts = fields.integer("max_attempts", 200, minimum=1)
+        region = self._region(fields)
+        rng = np.random.Generator(np.random.PCG64([seed, 1]))
+        radii = self._radii(fields, count, rng)
+        points = random_packing(region, radii, seed, self.x, self.radius, attempts)
+        if len(points) < count:
+            raise RunFailure(f"{fields.where}: placed only {len(points)} of {count} particles without overlap "
+                             f"in {attempts} attempts each; enlarge the region or lower 'count'")
+        self._add_particles(t, points, radii, fields.vector("velocity", default=[0, 0, 0]),
+                            fields.vector("omega", default=[0, 0, 0]))
+        self.log.info(f"created {len(points)} particles by random packing (seed {seed})")
+
+    def create_modifier(self, fields: Fields):
+        name = fields.string("name", required=True)
+        kind = fields.string("kind", required=True, choices=("gravity", "print", "vtk", "restart"))
+        mod = {"name": name, "kind": kind}
+        if kind == "gravity":
+            mod["acceleration"] = fields.vector("acceleration", default=[0.0, 0.0, -9.81])
+        else:
+            mod["every"] = fields.integer("every", required=True, minimum=1)
+        if kind == "print":
+            mod["file"] = fields.string("file", required=True)
+            mod["quantities"] = fields.strings("quantities", required=True)
+            for q in mod["quantities"]:
+                if not check_quantity(q):
+                    raise fields.error("quantities", f"names unknown quantity '{q}' (known: "
+                                       f"{', '.join(GLOBAL_QUANTITIES)}, or e.g. z[1] for particle 1)")
+            mod["series"] = None
+        elif kind == "vtk":
+            mod["folder"] = fields.string("folder", "post")
+            mod["prefix"] = fields.string("prefix", "particles")
+        elif kind == "restart":
+            mod["file"] = fields.string("file", "restart_{step}.npz")
+        self.modifiers[name] = mod
+
+    def create_restart(self, fields: Fields):
+        self.write_restart(fields.string("file", required=True))
+
+    def cmd_fix(self, fields: Fields):
+        name = fields.string("name", required=True)
+        if name not in self.modifiers:
+            raise fields.error("name", f"names no modifier '{name}' (create it first)")
+        if name not in self.active:
+            self.active.append(name)
+        if self.modifiers[name]["kind"] == "gravity":
+            self.dirty = True
+
+    def cmd_unfix(self, fields: Fields):
+        name = fields.string("name", required=True)
+        if name not in self.active:
+            raise fields.error("name", f"names no fixed modifier '{name}'")
+        self.active.remove(name)
+        if self.modifiers[name]["kind"] == "gravity":
+            self.dirty = True
+
+    def cmd_set(self, fields: Fields):
+        prop = fields.string("property", required=True,
+                             choices=("timestep", "skin", "thermo", "timestep_check", "restart", "velocity"))
+        if prop == "timestep":
+            self.dt = fields.number("value", required=True, positive=True)
+        elif prop == "skin":
+            self.skin = fields.number("value", required=True, positive=True)
+            self.dirty = True
+        elif prop == "thermo":
+            self.thermo_every = fields.integer("every", 0, minimum=0)
+            columns = fields.strings("columns", [])
+            for q in columns:
+                if not check_quantity(q):
+                    raise fields.error("columns", f"names unknown quantity '{q}'")
+            self.thermo_columns = THERMO_FIRST + [c for c in columns if c not in THERMO_FIRST]
+            new_file = fields.string("file", self.thermo_file)
+            if self.thermo is not None:
+                self.thermo.close()
+                self.thermo = None
+            self.thermo_file = new_file
+        elif prop == "timestep_check":
+            self.timestep_fraction = fields.number("fraction", self.timestep_fraction, positive=True)
+            self.timestep_strict = fields.boolean("strict", self.timestep_strict)
+        elif prop == "restart":
+            self.read_restart(fields.string("file", required=True), fields)
+        elif prop == "velocity":
+            value = fields.vector("value", required=True)
+            t = fields.integer("type", None, minimum=1)
+            mask = np.ones(len(self.pid), dtype=bool) if t is None else self.ptype == t - 1
+            self.v[mask] = value
+            self.dirty = True
+
+    def cmd_get(self, fields: Fields):
+        prop = fields.string("property", required=True)
+        if prop == "critical_timestep":
+            t_r, t_h = self.critical_timestep()
+            self.log.info(f"critical_timestep: rayleigh_time = {t_r!r} s, hertz_time = {t_h!r} s")
+        elif check_quantity(prop):
+            self.log.info(f"{prop} = {self.quantity(prop)!r}")
+        else:
+            raise fields.error("property", f"names unknown property '{prop}'")
+
+    # ------------------------------------------------------------------ quantities
+    def quantity(self, name: str):
+        m = _PARTICLE_QUANTITY.match(name)
+        if m:
+            where = np.nonzero(self.pid == int(m.group(2)))[0]
+            if len(where) == 0:
+                return math.nan
+            i = where[0]
+            q = m.group(1)
+            array = {"x": self.x, "y": self.x, "z": self.x, "vx": self.v, "vy": self.v, "vz": self.v,
+                     "fx": self.f, "fy": self.f, "fz": self.f, "omegax": self.omega, "omegay": self.omega,
+                     "omegaz": self.omega}[q]
+            return float(array[i, "xyz".index(q[-1])])
+        mass = self.mass
+        if name == "step":
+            return self.step
+        if name == "time":
+            return self.time
+        if name == "atoms":
+            return len(self.pid)
+        if name == "ke":
+            return float(0.5 * np.sum(mass * np.einsum("ij,ij->i", self.v, self.v)))
+        if name == "rke":
+            return float(0.5 * np.sum(0.4 * mass * self.radius ** 2 * np.einsum("ij,ij->i", self.omega, self.omega)))
+        if name == "pe":
+            g = self.gravity_vector()
+            return float(-np.sum(mass * (self.x @ g)))
+        if name == "energy":
+            return self.quantity("ke") + self.quantity("rke") + self.quantity("pe")
+        if name.startswith("momentum_"):
+            return float(np.sum(mass * self.v[:, AXES[name[-1]]]))
+        if name.startswith("com_"):
+            return float(np.sum(mass * self.x[:, AXES[name[-1]]]) / np.sum(mass)) if len(mass) else math.nan
+        if name == "max_speed":
+            return float(np.sqrt(np.max(np.einsum("ij,ij->i", self.v, self.v)))) if len(mass) else 0.0
+        if name in ("contacts", "max_overlap"):
+            contacts, _, worst = self.overlaps()
+            return contacts if name == "contacts" else worst
+        raise KeyError(name)
+
+    def overlaps(self):
+        """(particle-particle contacts, contacts above 10 % overlap, max overlap / smaller radius)."""
+        if self.lo is None or len(self.nbr_start) != len(self.pid) + 1:
+            return 0, 0, 0.0
+        return overlap_statistics(self.x, self.radius, self.nbr_start, self.nbr_j, self.lo, self.hi,
+                                  self.periodic, OVERLAP_WARN_RATIO)
+
+    def gravity_vector(self) -> np.ndarray:
+        g = np.zeros(3)
+        for name in self.active:
+            if self.modifiers[name]["kind"] == "gravity":
+                g += self.modifiers[name]["acceleration"]
+        return g
+
+    # ------------------------------------------------------------------ stability guards
+    def critical_timestep(self):
+        """(Rayleigh time, Hertz time) in s after LIGGGHTS ``fix_check_timestep_gran`` (physics.md, seed 000).
+
+        t_R = min_i pi r sqrt(rho/G) / (0.1631 nu + 0.8766), G = Y / (2 (1+nu));
+        t_H = min_i 2.87 (m^2 / (R Y*^2 v))^(1/5) with m the particle mass, R = r/2, Y* the largest over the
+        types it can touch, v = max(2 v_max, v_max + v_wall_max); infinite when v = 0.
+        """
+        if len(self.pid) == 0:
+            return math.inf, math.inf
+        user_types = self.ptype + 1
+        y = np.array([self.materials[t][0] for t in user_types])
+        nu = np.array([self.materials[t][1] for t in user_types])
+        rho = np.array([self.materials[t][2] for t in user_types])
+        shear = y / (2.0 * (1.0 + nu))
+        t_r = float(np.min(math.pi * self.radius * np.sqrt(rho / shear) / (0.1631 * nu + 0.8766)))
+        v_max = float(np.sqrt(np.max(np.einsum("ij,ij->i", self.v, self.v))))
+        v_wall = max([float(np.linalg.norm(w["velocity"])) for w in self.walls if w["shape"] == "plane"],
+                     default=0.0)
+        v = max(2.0 * v_max, v_max + v_wall)
+        if v == 0.0:
+            return t_r, math.inf
+        partners = sorted(set(user_types.tolist()) | {w["type"] for w in self.walls})
+        t_h = math.inf
+        for t in sorted(set(user_types.tolist())):
+            ystar = max(effective_youngs_modulus(*self.materials[t][:2], *self.materials[p][:2]) for p in partners)
+            sel = user_types == t
+            m = self.mass[sel]
+            r_half = 0.5 * self.radius[sel]
+            t_h = min(t_h, float(np.min(2.87 * (m * m / (r_half * ystar * ystar * v)) ** 0.2)))
+        return t_r, t_h
+
+    def check_timestep(self, where: str):
+        t_r, t_h = self.critical_timestep()
+        self.log.info(f"critical time step: Rayleigh time {t_r:.6g} s (dt/t_R = {self.dt / t_r:.4g}), "
+                      f"Hertz time {t_h:.6g} s (dt/t_H = {self.dt / t_h:.4g}), fraction limit "
+                      f"{self.timestep_fraction:g}")
+        for label, t_c in (("Rayleigh", t_r), ("Hertz", t_h)):
+            if self.dt > self.timestep_fraction * t_c:
+                text = (f"time step {self.dt:g} s is {self.dt / t_c:.3g} of the {label} time {t_c:.4g} s, above "
+                        f"the allowed fraction {self.timestep_fraction:g}")
+                if self.timestep_strict:
+                    raise RunFailure(f"{where}: {text} (strict time step check)")
+                self.log.warning(text)
+        if len(self.pid):
+            v_max = float(np.sqrt(np.max(np.einsum("ij,ij->i", self.v, self.v))))
+            if 2.0 * v_max * self.dt > self.skin:
+                self.log.warning(f"relative velocity {2 * v_max:.4g} m/s times dt exceeds the neighbor skin "
+                                 f"{self.skin:g} m; contacts may be missed")
+
+    # ------------------------------------------------------------------ run
+    def combination(self) -> Combination:
+        m = self.model
+        return Combination(normal=m["normal"], tangential=m["tangential"], cohesion=m["cohesion"],
+                           rolling=m["rolling"], limit_force=m["limit_force"],
+                           tangential_damping=m["tangential_damping"],
+                           planes=any(w["shape"] == "plane" for w in self.walls),
+                           cylinders=any(w["shape"] == "cylinder" for w in self.walls),
+                           gravity=any(self.modifiers[n]["kind"] == "gravity" for n in self.active),
+                           periodic=tuple(bool(p) for p in self.periodic))
+
+    def _check_ready(self, fields: Fields):
+        if self.lo is None:
+            raise fields.error("steps", "cannot run: no domain (create a domain first)")
+        if self.dt is None:
+            raise fields.error("steps", "cannot run: no time step (set property timestep first)")
+        if self.model is None:
+            raise fields.error("steps", "cannot run: no contact model (create a contact_model first)")
+        used = sorted(set((self.ptype + 1).tolist()) | {w["type"] for w in self.walls})
+        for a in used:
+            for b in used:
+                if a <= b and (a, b) not in self.interactions:
+                    raise fields.error("steps", f"cannot run: no interaction for material types {a} and {b} "
+                                       "(create an interaction)")
+        if len(self.pid):
+            cutoff = 2 * float(self.radius.max()) + self.skin
+            for a in range(3):
+                if self.periodic[a] and self.hi[a] - self.lo[a] < 2 * cutoff:
+                    raise fields.error("steps", f"cannot run: periodic length along {'xyz'[a]} must be at least "
+                                       f"twice the neighbor cutoff ({2 * cutoff:g} m)")
+
+    def _wall_arrays(self):
+        planes = [w for w in self.walls if w["shape"] == "plane"]
+        cyls = [w for w in self.walls if w["shape"] == "cylinder"]
+        return (np.array([w["axis"] for w in planes], dtype=np.int64), self.plane_pos,
+                np.array([w["velocity"] for w in planes], dtype=np.float64).reshape(-1, 3),
+                np.array([w["type"] - 1 for w in planes], dtype=np.int64),
+                np.array([w["center"] for w in cyls], dtype=np.float64).reshape(-1, 2),
+                np.array([w["radius"] for w in cyls], dtype=np.float64),
+                np.array([1.0 if w["side"] == "inside" else -1.0 for w in cyls], dtype=np.float64),
+                np.array([w["type"] - 1 for w in cyls], dtype=np.int64))
+
+    def _state(self):
+        return (self.x, self.v, self.f, self.omega, self.torque, self.radius, self.mass, self.inv_mass,
+                self.inv_inertia, self.ptype, self.pid, self.x_build, self.nbr_start, self.nbr_j, self.pair_hist,
+                self.wall_hist)
+
+    def _set_state(self, state):
+        (self.x, self.v, self.f, self.omega, self.torque, self.radius, self.mass, self.inv_mass, self.inv_inertia,
+         self.ptype, self.pid, self.x_build, self.nbr_start, self.nbr_j, self.pair_hist, self.wall_hist) = state
+
+    def _fit_history(self, combo: Combination):
+        """History arrays sized for this combination: width 0 (nothing stored) unless a submodel needs it."""
+        width = combo.history_width
+        if self.pair_hist.shape[1] != width or self.pair_hist.shape[0] != len(self.nbr_j):
+            self.pair_hist = np.zeros((len(self.nbr_j) if width else 0, width))
+        nwalls = len(self.walls)
+        rows = len(self.pid) if (width and nwalls) else 0
+        if self.wall_hist.shape[1:] != (nwalls if rows else 0, width if rows else 0):
+            self.wall_hist = np.zeros((rows, nwalls if rows else 0, width if rows else 0))
+        elif self.wall_hist.shape[0] != rows:  # particles were added: fresh rows for them
+            grown = np.zeros((rows,) + self.wall_hist.shape[1:])
+            grown[:min(rows, self.wall_hist.shape[0])] = self.wall_hist[:rows]
+            self.wall_hist = grown
+        if len(self.nbr_start) > len(self.pid) + 1:  # stale list after particles vanished: start afresh
+            self.nbr_start = np.zeros(1, dtype=np.int64)
+            self.nbr_j = np.zeros(0, dtype=np.int32)
+            self.pair_hist = np.zeros((0, width))
+
+    def _report_lost(self, lost_ids, lost_steps, nlost):
+        if nlost:
+            ids = ", ".join(str(i) for i in lost_ids[:nlost][:20]) + (" ..." if nlost > 20 else "")
+            self.log.warning(f"{nlost} particle(s) left the fixed domain and were removed (ids {ids}; first at "
+                             f"step {int(lost_steps[0])})")
+            self.lost_total += nlost
+
+    def cmd_run(self, fields: Fields):
+        steps = fields.integer("steps", required=True, minimum=0)
+        self._check_ready(fields)
+        combo = self.combination()
+        t0 = time.perf_counter()
+        kernel = build_kernel(combo)
+        self._fit_history(combo)
+        self.check_timestep(fields.where)
+        pp = parameter_table(self.materials, self.interactions, max(self.materials))
+        gravity = self.gravity_vector()
+        walls = self._wall_arrays()
+        self.plane_pos = walls[1]
+        common = (pp, self.dt, self.model["characteristic_velocity"], gravity, self.lo, self.hi, self.periodic,
+                  self.skin)
+        if self.dirty:
+            n = len(self.pid)
+            lost_ids, lost_steps, nlost = np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(1, np.int64)
+            state = kernel.setup(*self._state(), *common, self.step, lost_ids, lost_steps, nlost, *walls)
+            self._set_state(state)
+            self._report_lost(lost_ids, lost_steps, int(nlost[0]))
+            self.dirty = False
+        # a zero-step call compiles run_steps (or loads it from the disk cache) outside the timed loop
+        kernel.run_steps(*self._state(), *common, self.step, 0, np.zeros(3), np.zeros(1, np.int64),
+                         np.zeros(1, np.int64), np.zeros(1, np.int64), *walls)
+        self.timing["compile"] += time.perf_counter() - t0  # first call of a kernel compiles or loads it
+        start_wall = time.perf_counter()
+        start_step, start_time = self.step, self.time
+        timers = np.zeros(3)
+        particle_steps = 0
+        rebuilds = 0
+        self._outputs(start=True)
+        overlap_warned = False
+        max_overlap = 0.0
+        end = start_step + steps
+        self._end_step = end
+        while self.step < end:
+            stop = self._next_output_step(end)
+            n = len(self.pid)
+            lost_ids, lost_steps, nlost = np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(1, np.int64)
+            result = kernel.run_steps(*self._state(), *common, self.step, stop - self.step, timers, lost_ids,
+                                      lost_steps, nlost, *walls)
+            status, bad, done, rebuilt = result[:4]
+            self._set_state(result[4:])
+            particle_steps += done * n
+            rebuilds += rebuilt
+            self.step += done
+            self.time = start_time + (self.step - start_step) * self.dt
+            self._report_lost(lost_ids, lost_steps, int(nlost[0]))
+            if status == 1:
+                self.step += 1
+                raise RunFailure(f"{fields.where}: non-finite position of particle {int(self.pid[bad])} at step "
+                                 f"{self.step}")
+            self._check_finite(fields.where)
+            _, n_large, worst = self.overlaps()
+            max_overlap = max(max_overlap, worst)
+            if n_large and not overlap_warned:
+                overlap_warned = True
+                self.log.warning(f"step {self.step}: {n_large} contact(s) overlap more than "
+                                 f"{OVERLAP_WARN_RATIO:.0%} of the smaller radius (max {worst:.1%})")
+            self._outputs(start=False)
+        total = time.perf_counter() - start_wall
+        t = self.timing
+        t["neigh"] += timers[0]
+        t["pair"] += timers[1]
+        t["modify"] += timers[2]
+        t["total"] += total
+        t["steps"] += steps
+        t["particles"] = len(self.pid)
+        t["particle_steps"] += particle_steps
+        rate = particle_steps / total if total > 0 else 0.0
+        self.log.info(f"Loop time of {total:.6g} s for {steps} steps with {len(self.pid)} particles "
+                      f"({rate:.4g} particle-steps/s); pair {timers[1]:.4g} s, neigh {timers[0]:.4g} s "
+                      f"({rebuilds} rebuilds), modify {timers[2]:.4g} s; max overlap {max_overlap:.2%} of radius; "
+                      f"particles lost so far {self.lost_total}")
+
+    def _check_finite(self, where):
+        for label, array in (("velocity", self.v), ("force", self.f), ("angular velocity", self.omega),
+                             ("position", self.x)):
+            bad = np.nonzero(~np.all(np.isfinite(array), axis=1))[0]
+            if len(bad):
+                raise RunFailure(f"{where}: non-finite {label} of particle {int(self.pid[bad[0]])} at step "
+                                 f"{self.step}")
+
+    def _output_every(self):
+        every = [self.thermo_every] if self.thermo_every else []
+        every += [self.modifiers[n]["every"] for n in self.active if "every" in self.modifiers[n]]
+        return every
+
+    def _next_output_step(self, end):
+        stop = end
+        for every in self._output_every():
+            stop = min(stop, (self.step // every + 1) * every)
+        return stop
+
+    def _outputs(self, start: bool):
+        t0 = time.perf_counter()
+        if self.thermo is None:
+            self.thermo = CsvSeries(self.thermo_file, self.thermo_columns)
+        # rows at run start, every N steps and at run end, like LIGGGHTS' thermo
+        if start or (self.thermo_every and self.step % self.thermo_every == 0) or self.step == self._end_step:
+            self.thermo.write(self.step, [self.quantity(c) for c in self.thermo_columns])
+        for name in self.active:
+            mod = self.modifiers[name]
+            if "every" not in mod or self.step % mod["every"]:
+                continue
+            if mod["kind"] == "print":
+                if mod["series"] is None:
+                    mod["series"] = CsvSeries(mod["file"], ["step", "time"] + mod["quantities"])
+                mod["series"].write(self.step, [self.step, self.time] + [self.quantity(q) for q in mod["quantities"]])
+            elif mod["kind"] == "vtk":
+                self.write_vtk(mod)
+            elif mod["kind"] == "restart" and not start:
+                self.write_restart(mod["file"].replace("{step}", str(self.step)))
+        self.timing["output"] += time.perf_counter() - t0
+
+    _end_step = None
+
+    def write_vtk(self, mod):
+        folder = Path(mod["folder"])
+        folder.mkdir(parents=True, exist_ok=True)
+        order = np.argsort(self.pid, kind="stable")  # files list particles by id, whatever the memory order
+        write_vtp(folder / f"{mod['prefix']}_{self.step}.vtp", self.pid[order], self.ptype[order] + 1,
+                  self.x[order], self.v[order], self.f[order], self.omega[order], self.radius[order])
+
+    # ------------------------------------------------------------------ restart
+    def write_restart(self, path: str):
+        """Everything needed to continue bitwise: particles in memory order, neighbor list, contact history."""
+        if self.lo is None:
+            raise InputError(f"restart {path}: nothing to write (no domain yet)")
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "wb") as handle:
+            np.savez(handle, format=RESTART_FORMAT, step=self.step, time=self.time,
+                     dt=np.nan if self.dt is None else self.dt, skin=self.skin, lo=self.lo, hi=self.hi,
+                     periodic=self.periodic, next_id=self.next_id, dirty=self.dirty,
+                     walls=json.dumps(self.walls), plane_pos=self.plane_pos,
+                     **dict(zip(("x", "v", "f", "omega", "torque", "radius", "mass", "inv_mass", "inv_inertia",
+                                 "ptype", "pid", "x_build", "nbr_start", "nbr_j", "pair_hist", "wall_hist"),
+                                self._state())))
+        self.log.info(f"wrote restart file {path} at step {self.step}")
+
+    def read_restart(self, path: str, fields: Fields):
+        try:
+            data = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise fields.error("file", f"cannot read restart file {path}: {exc}") from None
+        if int(data["format"]) != RESTART_FORMAT:
+            raise fields.error("file", f"{path} has restart format {int(data['format'])}, expected {RESTART_FORMAT}")
+        for w in json.loads(str(data["walls"])):
+            if w["type"] not in self.materials:
+                raise fields.error("file", f"wall '{w['name']}' in {path} uses material type {w['type']} "
+                                   "which this script does not define")
+        for t in set((data["ptype"] + 1).tolist()):
+            if t not in self.materials:
+                raise fields.error("file", f"{path} holds particles of material type {t} which this script "
+                                   "does not define")
+        self.step = int(data["step"])
+        self.time = float(data["time"])
+        if not math.isnan(float(data["dt"])):
+            self.dt = float(data["dt"])
+        self.skin = float(data["skin"])
+        self.lo, self.hi = data["lo"].copy(), data["hi"].copy()
+        self.periodic = data["periodic"].copy()
+        self.next_id = int(data["next_id"])
+        self.walls = json.loads(str(data["walls"]))
+        self.plane_pos = data["plane_pos"].copy()
+        self._set_state(tuple(np.ascontiguousarray(data[k]) for k in (
+            "x", "v", "f", "omega", "torque", "radius", "mass", "inv_mass", "inv_inertia", "ptype", "pid",
+            "x_build", "nbr_start", "nbr_j", "pair_hist", "wall_hist")))
+        self.dirty = bool(data["dirty"])
+        self.log.info(f"read restart file {path}: step {self.step}, {len(self.pid)} particles")
+
+    def close(self):
+        if self.thermo is not None:
+            self.thermo.close()
+        for mod in self.modifiers.values():
+            if mod.get("series") is not None:
+                mod["series"].close()
+
+    def timing_record(self) -> dict:
+        t = dict(self.timing)
+        t["other"] = max(0.0, t["total"] - t["pair"] - t["neigh"] - t["comm"] - t["modify"] - t["output"])
+        t["particle_steps_per_second"] = t["particle_steps"] / t["total"] if t["total"] > 0 else 0.0
+        return t
