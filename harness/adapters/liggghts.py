@@ -64,7 +64,8 @@ def read_log_lines(folder: Path, log_name: str = LOG_NAME) -> list[str]:
 def parse_thermo_blocks(lines: list[str]) -> list[tuple[list[str], list[list[float]]]]:
     """Thermo tables of a LIGGGHTS log: one ``(header, rows)`` per run block.
 
-    A block starts at a header line (first word ``Step``, no numbers) and ends at ``Loop time``, ``ERROR``
+    A block starts at a header line (first word ``Step``; the others may be numbers: ``compute 1 all
+    erotate/sphere`` is printed as column ``1``) and ends at ``Loop time``, ``ERROR``
     or the next header. Lines in between that are not rows of the header's width (INFO, WARNING, insertion
     reports) are skipped, so interleaved messages do not break a table.
     """
@@ -74,7 +75,7 @@ def parse_thermo_blocks(lines: list[str]) -> list[tuple[list[str], list[list[flo
         tokens = line.split()
         if not tokens:
             continue
-        if tokens[0] == "Step" and len(tokens) > 1 and not any(_is_number(t) for t in tokens):
+        if tokens[0] == "Step" and len(tokens) > 1:
             header = tokens
             blocks.append((header, []))
             continue

@@ -74,6 +74,14 @@ def test_blocks_joined_repeated_step_dropped(crafted):
     assert list(thermo.columns[:4]) == ["step", "atoms", "ke", "rke"] and "Volume" in thermo.columns
 
 
+def test_numeric_compute_id(tmp_path):
+    # Tutorials_public/packing: "compute 1 all erotate/sphere" is printed as header column "1"
+    (tmp_path / LOG_NAME).write_text(CRAFTED.replace(" rot ", " 1 ").replace("c_rot", "c_1")
+                                     .replace("            rot ", "              1 "))
+    thermo = adapter.read_thermo(tmp_path)
+    assert list(thermo["rke"]) == [0, 1e-6, 2e-6, 3e-6, 4e-6]
+
+
 def test_explicit_mapping_wins(crafted):
     # KinEng would be inferred for ke; the mapping names another column and wins
     thermo = adapter.read_thermo(crafted, {"ke": "Volume"})
