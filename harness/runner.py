@@ -244,9 +244,10 @@ def _progress(done: int, total: int, record: dict, out) -> None:
     out.flush()
 
 
-def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out=sys.stderr) -> None:
+def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out=None) -> None:
     from harness.records import store_record
 
+    out = out or sys.stderr
     total = len(tasks)
     done_count = 0
     results: dict[tuple, dict] = {}
@@ -324,8 +325,9 @@ def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out
         pool.close()
 
 
-def run_targets(targets: list[TargetDefinition], options: RunOptions, out=sys.stderr) -> RunReport:
+def run_targets(targets: list[TargetDefinition], options: RunOptions, out=None) -> RunReport:
     """Build, plan and execute; problems (bad files, failed builds) are reported and the rest goes on."""
+    out = out or sys.stderr
     report = RunReport()
     tasks: list[Task] = []
     say = (lambda text: (out.write(text + "\n"), out.flush()))

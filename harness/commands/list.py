@@ -10,11 +10,11 @@ def configure(parser):
 
 
 def run(args) -> int:
-    from harness.models import Run
-    from harness.runner import format_table
     from harness.store import setup_store
 
     setup_store()
+    from harness.models import Run
+    from harness.runner import format_table
     runs = Run.objects.select_related("target", "testcase", "build", "machine").order_by(
         "target__name", "testcase__path", "name", "-id")
     if not args.all_machines:

@@ -8,14 +8,14 @@ def configure(parser):
 
 
 def run(args) -> int:
+    from harness.store import setup_store
+
+    setup_store()
     from django.db.models import Count
 
     from harness.builds import current_build
     from harness.models import Run, Target
     from harness.runner import format_table
-    from harness.store import setup_store
-
-    setup_store()
     targets = Target.objects.order_by("name")
     if args.targets:
         targets = targets.filter(name__in=args.targets)

@@ -40,6 +40,7 @@ def main(argv):
     except (OSError, ValueError) as exc:
         error(f"cannot read script: {exc}", 2)
     heights, mass, step, dt = [], 1.0, 0, 1e-3
+    remove_thermo = False
     thermo = open("thermo.csv", "w")
     thermo.write("step,time,atoms,ke,rke,z\n")
     for command in commands:
@@ -82,8 +83,7 @@ def main(argv):
         elif name == "nan":
             thermo.write(f"{step + 1},{(step + 1) * dt},{len(heights)},nan,0,0\n")
         elif name == "no_thermo":
-            thermo.close()
-            os.remove("thermo.csv")
+            remove_thermo = True
         elif name == "write":
             with open(command["file"], "w") as handle:
                 handle.write(command["text"])
@@ -99,6 +99,9 @@ def main(argv):
               open("timing.json", "w"))
     log.write("run done\n")
     log.close()
+    if remove_thermo:
+        thermo.close()
+        os.remove("thermo.csv")
 
 
 def write_vtp(path, heights, mass, t):
