@@ -1,0 +1,122 @@
+"""LIGGGHTS driven end to end through the harness CLI (subprocesses, a throw-away workspace)."""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from harness.consistency import compare_runs, run_level
+from liggghts_support import LIGGGHTS, PROJECT, needs_liggghts, needs_mpirun
+
+TUTORIALS = Path("/usr/share/doc/liggghts/examples/LIGGGHTS/Tutorials_public")
+pytestmark = needs_liggghts
+
+
+def harness(home: Path, *args: str, targets: Path | None = None, check: bool = True):
+    cmd = [sys.executable, "-m", "harness.cli", "--machine", "testbox", "--home", str(home)]
+    if targets is not None:
+        cmd += ["--targets", str(targets)]
+    result = subprocess.run(cmd + list(args), cwd=PROJECT, capture_output=True, text=True, timeout=300)
+    if check:
+        assert result.returncode == 0, result.stdout + result.stderr
+    return result
+
+
+def records(home: Path, target: str) -> dict[str, dict]:
+    """run.json records of a target's runs by 'test case/run'."""
+    found = {}
+    for path in (home / "runs" / "testbox" / target).rglob("run.json"):
+        record = json.loads(path.read_text())
+        found[f"{record['testcase']}/{record['run']}"] = record
+    return found
+
+
+def series(record: dict, kind: str) -> dict:
+    return next(s for s in record["series"] if s["kind"] == kind)["columns"]
+
+
+@pytest.fixture(scope="module")
+def liggghts_target_runs(tmp_path_factory):
+    """``harness run liggghts``: our three LIGGGHTS scenes, five runs (about 5 s)."""
+    home = tmp_path_factory.mktemp("home")
+    result = harness(home, "run", "liggghts")
+    return records(home, "liggghts"), result.stdout
+
+
+@needs_mpirun
+def test_liggghts_target_runs_all_scenes(liggghts_target_runs):
+    runs, stdout = liggghts_target_runs
+    assert sorted(runs) == [
+        "testcases/liggghts/cohesion/cohesionless", "testcases/liggghts/cohesion/cohesive",
+        "testcases/liggghts/settling/mpi_np2", "testcases/liggghts/settling/serial",
+        "testcases/liggghts/wall_impact/impact",  # no run.config: the adapter's default one
+    ]
+    for name, record in runs.items():
+        assert record["state"] == "post_processed", (name, record["failure_message"])
+        assert record["adapter"] == "liggghts" and record["timing"]["total"] > 0
+        thermo = series(record, "thermo")
+        assert {"step", "atoms", "ke", "rke"} <= set(thermo)
+
+
+@needs_mpirun
+def test_vtk_dumps_agree_with_thermo(liggghts_target_runs):
+    """The backend's aggregates of LIGGGHTS' legacy .vtk dumps give the kinetic energy the log prints."""
+    runs, _ = liggghts_target_runs
+    for name in ("testcases/liggghts/settling/serial", "testcases/liggghts/wall_impact/impact"):
+        thermo, dumps = series(runs[name], "thermo"), series(runs[name], "vtk")
+        ke_by_step = dict(zip(thermo["step"], thermo["ke"]))
+        assert len(dumps["step"]) >= 4
+        for step, ke, count in zip(dumps["step"], dumps["ke"], dumps["particles"]):
+            assert ke == pytest.approx(ke_by_step[step], rel=1e-6, abs=1e-12), (name, step)
+            assert count == thermo["atoms"][0]
+
+
+@needs_mpirun
+def test_mpi_run_consistent_with_serial(liggghts_target_runs):
+    runs, _ = liggghts_target_runs
+    serial, mpi = runs["testcases/liggghts/settling/serial"], runs["testcases/liggghts/settling/mpi_np2"]
+    command = mpi["command"]
+    assert command[0] == "mpirun" and command[command.index("-np") + 1] == "2"
+    assert "on 2 procs" in (Path(mpi["folder"]) / "log.liggghts").read_text()
+    a, b = series(serial, "thermo"), series(mpi, "thermo")
+    # identical until the decomposition's different summation order grows by chaos (late, small energies)
+    np.testing.assert_allclose(b["ke"][:12], a["ke"][:12], rtol=1e-7)
+    results = {r.quantity: r for r in compare_runs(mpi["series"], serial["series"])}
+    assert results["ke"].level == "perfect" and results["rke"].level == "perfect"
+    assert run_level(list(results.values()))[0] == "perfect"
+
+
+def test_tutorials_run_unchanged(tmp_path):
+    """A copy of Tutorials_public (two fast tutorials and the failing old-syntax script), no run.config."""
+    if not TUTORIALS.is_dir():
+        pytest.skip("LIGGGHTS tutorials not installed (apt-get install liggghts-doc)")
+    tutorials = tmp_path / "Tutorials_public"
+    for name in ("packing", "mesh_tet"):
+        shutil.copytree(TUTORIALS / name, tutorials / name)
+    (tutorials / "contactModels").mkdir()
+    shutil.copy(TUTORIALS / "contactModels" / "in.oldModels", tutorials / "contactModels")
+    targets = tmp_path / "targets"
+    targets.mkdir()
+    (targets / "tutorials.json").write_text(json.dumps({
+        "recipe": "system", "executable": LIGGGHTS, "engine": "liggghts", "testcases": [str(tutorials)]}))
+    home = tmp_path / "home"
+    result = harness(home, "run", "tutorials", targets=targets, check=False)
+    assert result.returncode == 1  # one run failed
+    runs = {name.rsplit("/", 2)[-2] + "/" + name.rsplit("/", 1)[-1]: r
+            for name, r in records(home, "tutorials").items()}
+    assert sorted(runs) == ["contactModels/oldModels", "mesh_tet/mesh_tet", "packing/packing"]
+    packing = runs["packing/packing"]
+    assert packing["state"] == "post_processed", packing["failure_message"]
+    thermo = series(packing, "thermo")
+    # three run blocks (run 1, run 50000, run 20000 upto) joined, steps strictly increasing
+    assert thermo["step"][-1] == 70001 and np.all(np.diff(thermo["step"]) > 0)
+    assert max(thermo["atoms"]) == 338 and max(thermo["rke"]) > 0  # rke: "compute 1 all erotate/sphere"
+    assert len(series(packing, "vtk")["step"]) == 200
+    assert runs["mesh_tet/mesh_tet"]["state"] == "post_processed"
+    failed = runs["contactModels/oldModels"]
+    assert failed["state"] == "failed" and "Invalid pair style" in failed["failure_message"]
