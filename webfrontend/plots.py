@@ -23,8 +23,20 @@ DEFAULT_UNITS = {
 }
 #: the consistency levels (thesis 4.4.1): Delta_k below 5 % is perfect, below 10 % good
 LEVELS = (("10 % band (good)", 0.10, "#f6d8a8"), ("5 % band (perfect)", 0.05, "#b9e3b0"))
-FIGSIZE = (6.4, 3.6)
+FIGSIZE = (6.4, 4.2)
 DPI = 100
+
+
+def new_figure(size=FIGSIZE) -> Figure:
+    # constrained layout keeps the legend below the axes, where it hides no data
+    return Figure(figsize=size, dpi=DPI, layout="constrained")
+
+
+def legend_below(fig: Figure, ax) -> None:
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="outside lower center", ncols=2 if len(labels) > 1 else 1,
+                   fontsize="small", frameon=False)
 
 
 def png(fig: Figure) -> bytes:
@@ -86,7 +98,7 @@ def series_figure(curves: list[tuple[str, object]], quantity: str | None) -> Fig
     ``curves`` is ``[(run label, Series)]``; with several runs each gets its own line (thesis 4.6.2:
     plots of all compared runs overlaid).
     """
-    fig = Figure(figsize=FIGSIZE, dpi=DPI)
+    fig = new_figure()
     ax = fig.add_subplot()
     first = curves[0][1]
     meta = first.meta or {}
@@ -114,8 +126,7 @@ def series_figure(curves: list[tuple[str, object]], quantity: str | None) -> Fig
     title = meta.get("title") if declared else None
     ax.set_title(title or f"{first.name}: {quantity or ', '.join(columns)}")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize="small")
-    fig.tight_layout()
+    legend_below(fig, ax)
     return fig
 
 
@@ -137,7 +148,7 @@ def consistency_figure(result, run_series, reference_series, run_label: str, ref
 
     ``result`` is the ConsistencyResult (C, level, eps, first step out of band); the series hold the data.
     """
-    fig = Figure(figsize=FIGSIZE, dpi=DPI)
+    fig = new_figure()
     ax = fig.add_subplot()
     quantity = result.quantity
     x_ref, xlabel = abscissa(reference_series)
@@ -163,8 +174,7 @@ def consistency_figure(result, run_series, reference_series, run_label: str, ref
     ax.set_xlabel(xlabel)
     ax.set_ylabel(label_of(reference_series, quantity))
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize="small")
-    fig.tight_layout()
+    legend_below(fig, ax)
     return fig
 
 
@@ -173,7 +183,7 @@ def history_figure(runs, testcase_path: str, target_name: str) -> Figure:
 
     ``runs`` are ordered oldest build first; one line per run configuration name.
     """
-    fig = Figure(figsize=(6.4, 5.2), dpi=DPI)
+    fig = new_figure((6.4, 5.6))
     ax_c, ax_t = fig.subplots(2, 1, sharex=True)
     from webfrontend.presentation import revision_label
 
@@ -200,6 +210,5 @@ def history_figure(runs, testcase_path: str, target_name: str) -> Figure:
     ax_t.set_xticklabels(revisions, rotation=20, ha="right", fontsize="small")
     for ax in (ax_c, ax_t):
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize="x-small")
-    fig.tight_layout()
+    legend_below(fig, ax_c)
     return fig

@@ -30,6 +30,11 @@ def run_label(run) -> str:
            f"on {run.machine.name}"
 
 
+def short_label(run) -> str:
+    """Run name for legends and bars: id, target and revision (the id tells test cases apart)."""
+    return f"#{run.pk} {run.target.name}@{revision_label(run.build)}"
+
+
 def timing_total(run) -> float:
     timing = run.timing if isinstance(run.timing, dict) else {}
     total = timing.get("total")
@@ -59,7 +64,7 @@ def timing_bar(run, scale: float | None = None) -> dict:
         seconds = timing.get(category) or 0.0
         if isinstance(seconds, (int, float)) and seconds > 0 and scale > 0:
             segments.append(Segment(category, float(seconds), 100.0 * seconds / scale, color))
-    return {"run": run, "label": run_label(run), "total": total, "segments": segments,
+    return {"run": run, "label": short_label(run), "title": run_label(run), "total": total, "segments": segments,
             "width": 100.0 * total / scale if scale else 0.0}
 
 

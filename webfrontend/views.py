@@ -108,7 +108,7 @@ def compare_plot(request):
                                    name=request.GET.get("name", "")).select_related(
         "run__target", "run__build", "run__machine", "run__testcase")
     by_run = {s.run_id: s for s in series}
-    curves = [(presentation.run_label(by_run[i].run), by_run[i]) for i in dict.fromkeys(ids) if i in by_run]
+    curves = [(presentation.short_label(by_run[i].run), by_run[i]) for i in dict.fromkeys(ids) if i in by_run]
     if not curves or (quantity and quantity not in plots.quantities(curves[0][1])):
         raise Http404("no such series")
     return _png(plots.series_figure(curves, quantity or (None if curves[0][1].kind == "plot"
@@ -138,8 +138,8 @@ def consistency_plot(request, run_id, result_id):
     if result.reference_run_id not in by_run:
         raise Http404("the reference run has no such series")
     return _png(plots.consistency_figure(result, by_run.get(result.run_id), by_run[result.reference_run_id],
-                                         presentation.run_label(result.run),
-                                         presentation.run_label(result.reference_run)))
+                                         presentation.short_label(result.run),
+                                         presentation.short_label(result.reference_run)))
 
 
 @login_required

@@ -15,7 +15,7 @@ def series(kind="thermo", name="thermo", columns=None, x_column="step", meta=Non
 
 def texts(fig):
     ax = fig.axes[0]
-    return ax.get_title(), ax.get_xlabel(), ax.get_ylabel(), [t.get_text() for t in ax.get_legend().get_texts()]
+    return ax.get_title(), ax.get_xlabel(), ax.get_ylabel(), [t.get_text() for t in fig.legends[0].get_texts()]
 
 
 def test_thermo_quantity_has_units_and_run_legend():

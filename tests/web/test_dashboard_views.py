@@ -206,8 +206,8 @@ class CompareTest(DashboardTest):
         self.assertIn("Comparison of 2 runs", html)
         self.assertIn("pair: 0.800 s", html)
         self.assertIn("pair: 0.400 s", html)
-        self.assertIn('<span class="del">-{&quot;run&quot;: 2000, &quot;dt&quot;: 1e-5}</span>', html)
-        self.assertIn('<span class="add">+{&quot;run&quot;: 2000, &quot;dt&quot;: 2e-5}</span>', html)
+        self.assertIn('<div class="del">-{&quot;run&quot;: 2000, &quot;dt&quot;: 1e-5}</div>', html)
+        self.assertIn('<div class="add">+{&quot;run&quot;: 2000, &quot;dt&quot;: 2e-5}</div>', html)
         self.assertIn("run configuration: identical", html)
         self.assertIn("&lt;script&gt;", html)  # the log diff, escaped
         plot_urls = re.findall(r'src="(/compare/plot\.png[^"]*)"', html)
