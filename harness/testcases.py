@@ -202,6 +202,11 @@ def _validate_entry(problems: Problems, entry: dict, i: int, folder: Path, adapt
         where = json_path(*at, "script")
         if not expect_type(problems, where, script, str, "a file name or an object per engine adapter"):
             return None
+        from harness.adapters import get_adapter
+
+        accepts = getattr(get_adapter(adapter_name), "accepts_script", None)
+        if accepts is not None and not accepts(script):
+            return None  # a plain script in another code's input language: not a run for this engine
     if isinstance(script, str) and not (folder / script).is_file():
         problems.add(where, f"script {script!r} not found in {folder}")
     return script

@@ -63,6 +63,11 @@ class DemAdapter(EngineAdapter):
     def log_file(self) -> str:
         return "log.dem"
 
+    def accepts_script(self, script: str) -> bool:
+        """The engine reads JSON command lists; a run.config whose plain ``script`` is e.g. a LIGGGHTS
+        ``in.*`` file is not for this engine (name both with ``{"dem": ..., "liggghts": ...}``)."""
+        return script.endswith(".json")
+
     def read_thermo(self, folder: Path, mapping=None) -> pd.DataFrame:
         path = Path(folder) / self.thermo_file
         if not path.is_file():
