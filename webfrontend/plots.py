@@ -20,6 +20,9 @@ from matplotlib.figure import Figure  # noqa: E402
 DEFAULT_UNITS = {
     "step": "1", "atoms": "1", "natoms": "1", "ke": "J", "kineng": "J", "rke": "J", "c_rke": "J",
     "time": "s", "t": "s", "dt": "s", "cpu": "s", "pe": "J", "etotal": "J", "press": "Pa",
+    # aggregates of VTK particle dumps (harness/postprocess.py)
+    "particles": "1", "ke_per_mass": "J/kg", "vx_mean": "m/s", "vy_mean": "m/s", "vz_mean": "m/s",
+    "x_min": "m", "x_max": "m", "y_min": "m", "y_max": "m", "z_min": "m", "z_max": "m",
 }
 #: the consistency levels (thesis 4.4.1): Delta_k below 5 % is perfect, below 10 % good
 LEVELS = (("10 % band (good)", 0.10, "#f6d8a8"), ("5 % band (perfect)", 0.05, "#b9e3b0"))

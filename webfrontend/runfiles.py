@@ -5,6 +5,7 @@ Every path a request names is resolved and must stay inside the run folder (no `
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,6 +20,11 @@ SCRIPT_KEYS = ("script", "input", "input_script")
 RECORD_NAME = "run.json"
 #: artifact suffixes offered for download on the run page
 ARTIFACT_SUFFIXES = (".vtp", ".vtk", ".vtu", ".csv", ".txt", ".json", ".xml", ".dat", ".log", ".in")
+
+
+def _natural(path: Path):
+    # dump_500.vtk before dump_1000.vtk
+    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", path.as_posix())]
 
 
 @dataclass
@@ -100,7 +106,7 @@ class RunFolder:
         if not self.exists():
             return []
         found = []
-        for path in sorted(self.root.rglob("*")):
+        for path in sorted(self.root.rglob("*"), key=_natural):
             if path.is_file() and path.suffix.lower() in ARTIFACT_SUFFIXES:
                 resolved = path.resolve()
                 if resolved.is_relative_to(self.root):

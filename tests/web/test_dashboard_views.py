@@ -319,6 +319,28 @@ class OverruleTest(DashboardTest):
         response = self.client.post(self.url(), {"reason": "x", "quantity": "not-a-bad-quantity"}, follow=True)
         self.assertIn("Not overruled: quantity", response.content.decode())
 
+    def test_quantity_keys_match_harness_check(self):
+        from harness.check import verdict_of
+        from harness.consistency import QuantityResult
+        from harness.models import ConsistencyResult
+
+        run = self.s["inconsistent"]
+        ConsistencyResult.objects.create(run=run, reference_run=self.s["reference"], series_kind="plot",
+                                         series_name="torqueZ", quantity="torqueZ", value=0.5,
+                                         level="inconsistent", epsilon=1e-4, first_bad_step=0.01)
+        self.client.force_login(self.s["user"])
+        html = self.get(f"/runs/{run.pk}/").content.decode()
+        self.assertIn('<option value="torqueZ:torqueZ">', html)
+        self.assertIn('<option value="ke">', html)
+        self.client.post(self.url(), {"reason": "ke drift explained", "quantity": "ke"})
+        self.assertFalse(Run.objects.with_accepted().get(pk=run.pk).accepted)  # torque still open
+        self.client.post(self.url(), {"reason": "torque follows ke", "quantity": "torqueZ:torqueZ"})
+        self.assertTrue(Run.objects.with_accepted().get(pk=run.pk).accepted)
+        # the CLI reads the same overrides the same way
+        results = [QuantityResult(r.series_kind, r.series_name, r.quantity, r.value, r.level, r.epsilon,
+                                  r.first_bad_step) for r in run.consistency_results.all()]
+        self.assertEqual(verdict_of(run, results, True).status, "passed")
+
     def test_get_is_not_allowed(self):
         self.client.force_login(self.s["user"])
         self.assertEqual(self.client.get(self.url()).status_code, 405)
