@@ -150,6 +150,9 @@ def check_targets(targets, machine: str) -> CheckReport:
         runs = (Run.objects.filter(build=build, machine__name=machine).select_related("testcase", "machine",
                                                                                       "target")
                 .order_by("testcase__path", "name"))
+        if not runs.exists():
+            report.problems.append(f"target {target.name!r}: no runs of its current build {build.commit[:12]} "
+                                   f"on machine {machine!r} (run 'harness run {target.name}')")
         for run in runs:
             results = check_run(run, target.reference)
             report.verdicts.append(verdict_of(run, results, bool(target.reference)))

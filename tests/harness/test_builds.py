@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import commit_files, fake_engine_source, git_repo
+from harness_support import commit_files, fake_engine_source, git_repo
 from harness.adapters.base import UserError
 from harness.builds import BuildError, build_target, sha256_file
 from harness.targets import load_target_file

@@ -136,3 +136,22 @@ def test_k_pattern_matching():
     assert matches("a/*/serial", "a/x", "serial")
     assert matches("a/*", "a/b", "run")
     assert not matches("c/*", "a/b", "run")
+
+
+def test_mpi_launcher_prefix(tmp_path, monkeypatch):
+    from harness import runner
+    from harness.targets import parse_target
+
+    target = parse_target("t", {"mpi_launcher": ["mpiexec"]}, tmp_path / "targets" / "t.json")
+    monkeypatch.setattr(runner, "_is_open_mpi", lambda launcher: False)
+    assert runner.mpi_prefix(target, {"type": "serial"}) is None
+    assert runner.mpi_prefix(target, {"type": "mpi", "nprocs": 4}) == ["mpiexec", "-np", "4"]
+    assert runner.mpi_prefix(target, {"type": "mpi/custom", "mpi_options": "-np 2 --bind-to core"}) == \
+        ["mpiexec", "-np", "2", "--bind-to", "core"]
+    monkeypatch.setattr(runner, "_is_open_mpi", lambda launcher: True)
+    monkeypatch.setattr(runner.os, "geteuid", lambda: 0)
+    monkeypatch.setattr(runner.os, "cpu_count", lambda: 2)
+    assert runner.mpi_prefix(target, {"type": "mpi", "nprocs": 4}) == \
+        ["mpiexec", "--allow-run-as-root", "--oversubscribe", "-np", "4"]
+    monkeypatch.setattr(runner.os, "geteuid", lambda: 1000)
+    assert runner.mpi_prefix(target, {"type": "mpi", "nprocs": 2}) == ["mpiexec", "-np", "2"]

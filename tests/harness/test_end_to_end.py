@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import commit_files, fake_engine_source, git_repo
+from harness_support import commit_files, fake_engine_source, git_repo
 from harness.cli import main
 
 SCENE = [{"command": "create", "heights": [1.0, "${H}"]}, {"command": "warn"},
