@@ -74,3 +74,32 @@ def test_harness_serve_serves_the_dashboard(tmp_path):
     finally:
         os.killpg(process.pid, signal.SIGTERM)
         process.wait(timeout=20)
+
+
+PRODUCTION_CLIENT = """
+import re, django
+django.setup()
+from django.core.management import call_command
+call_command("migrate", verbosity=0)
+from django.test import Client
+client = Client(HTTP_HOST="harness.example.org")
+insecure = client.get("/")
+page = client.get("/", secure=True)
+css = re.search(r'href="(/static/webfrontend/style\\.[0-9a-f]+\\.css)"', page.content.decode()).group(1)
+response = client.get(css, secure=True)
+print(insecure.status_code, page.status_code, page["Strict-Transport-Security"], css, response.status_code,
+      b"".join(response.streaming_content).count(b".bar"), sep="|")
+"""
+
+
+def test_production_serves_hashed_static_files_over_https(tmp_path):
+    extra = dict(HARNESS_SECRET_KEY=secrets.token_urlsafe(64), HARNESS_ALLOWED_HOSTS="harness.example.org",
+                 DJANGO_SETTINGS_MODULE="webfrontend.settings_production")
+    assert manage(tmp_path, "collectstatic", "--noinput", **extra).returncode == 0
+    done = subprocess.run([sys.executable, "-c", PRODUCTION_CLIENT], cwd=PROJECT_ROOT, capture_output=True,
+                          text=True, env=env_for(tmp_path, **extra), timeout=120)
+    assert done.returncode == 0, done.stderr
+    insecure, page, hsts, css, css_status, bars = done.stdout.strip().split("|")
+    assert (insecure, page, css_status) == ("301", "200", "200")  # http is redirected to https
+    assert hsts.startswith("max-age=31536000")
+    assert int(bars) >= 1
