@@ -29,7 +29,7 @@ def effective_shear_modulus(y_i, nu_i, y_j, nu_j):
     return 1.0 / (2.0 * (2.0 - nu_i) * (1.0 + nu_i) / y_i + 2.0 * (2.0 - nu_j) * (1.0 + nu_j) / y_j)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def hertz_normal(overlap, vn, ystar, gstar, beta, reff, meff):
     """Hertz normal force (LIGGGHTS ``normal_model_hertz.h``).
 
@@ -48,7 +48,7 @@ def hertz_normal(overlap, vn, ystar, gstar, beta, reff, meff):
     return kn * overlap - gn * vn, kn, st, gn, gt
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def hooke_normal(overlap, vn, ystar, log_restitution, reff, meff, characteristic_velocity):
     """Hooke normal force (LIGGGHTS ``normal_model_hooke.h``).
 
@@ -65,7 +65,7 @@ def hooke_normal(overlap, vn, ystar, log_restitution, reff, meff, characteristic
     return kn * overlap - gn * vn, kn, kn, gn, gn
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def sjkr_pair_force(r, r_i, r_j, cohesion_energy_density):
     """SJKR cohesion between two spheres (LIGGGHTS ``cohesion_model_sjkr.h``): F = -k A (along en, attractive).
 
@@ -76,13 +76,13 @@ def sjkr_pair_force(r, r_i, r_j, cohesion_energy_density):
     return -cohesion_energy_density * area
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def sjkr_wall_force(distance, r_i, cohesion_energy_density):
     """SJKR cohesion sphere-wall: F = -k pi (ri^2 - dist^2), dist = centre-wall distance (m). Returns N (<= 0)."""
     return -cohesion_energy_density * pi * (r_i * r_i - distance * distance)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def slip_velocity(vrx, vry, vrz, vn, enx, eny, enz, wrx, wry, wrz):
     """Tangential slip velocity of i relative to j at the contact point (m/s).
 
@@ -96,7 +96,7 @@ def slip_velocity(vrx, vry, vrz, vn, enx, eny, enz, wrx, wry, wrz):
     return (vtx + (eny * wrz - enz * wry), vty + (enz * wrx - enx * wrz), vtz + (enx * wry - eny * wrx))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def tangential_history(sx, sy, sz, vtx, vty, vtz, enx, eny, enz, kt, gt, friction, fn, dt):
     """Tangential force with history and Coulomb limit (LIGGGHTS 3.8 ``tangential_model_history.h``).
 
@@ -137,7 +137,7 @@ def tangential_history(sx, sy, sz, vtx, vty, vtz, enx, eny, enz, kt, gt, frictio
     return ftx, fty, ftz, sx, sy, sz
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def tangential_no_history(vtx, vty, vtz, gt, friction, fn):
     """Viscous tangential force capped by Coulomb (LIGGGHTS ``tangential_model_no_history.h``).
 
@@ -150,7 +150,7 @@ def tangential_no_history(vtx, vty, vtz, gt, friction, fn):
     return -g * vtx, -g * vty, -g * vtz
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rolling_cdt(wx, wy, wz, enx, eny, enz, rolling_friction, elastic_normal_force, lever):
     """Constant directional torque rolling friction (LIGGGHTS ``rolling_model_cdt.h``).
 
@@ -168,7 +168,7 @@ def rolling_cdt(wx, wy, wz, enx, eny, enz, rolling_friction, elastic_normal_forc
     return scale * wx, scale * wy, scale * wz
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rolling_epsd2(mx, my, mz, wx, wy, wz, enx, eny, enz, kt, reff, rolling_friction, fn, dt):
     """Elastic-plastic spring-dashpot rolling resistance, EPSD2 (LIGGGHTS ``rolling_model_epsd2.h``).
 

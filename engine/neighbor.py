@@ -14,7 +14,7 @@ from numba import njit
 MAX_CELLS_PER_PARTICLE = 8
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def max_displacement_check(x, x_build, half_skin_sq):
     """(rebuild needed, index of the first particle with a non-finite position or -1)."""
     need = False
@@ -30,7 +30,7 @@ def max_displacement_check(x, x_build, half_skin_sq):
     return need, -1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _axis_neighbor_cells(c, nc, periodic, out):
     """Distinct neighbor cell indices of cell c along one axis; returns how many were written to out."""
     m = 0
@@ -52,7 +52,7 @@ def _axis_neighbor_cells(c, nc, periodic, out):
     return m
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rebuild(x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, pid,
             nbr_start, nbr_j, pair_hist, wall_hist, lo, hi, periodic, skin, step, lost_ids, lost_steps, nlost):
     """Rebuild the neighbor list; see the module docstring. nlost: int64[1], incremented per lost particle.
@@ -254,7 +254,7 @@ def rebuild(x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, 
             new_start, new_j, new_hist, wall_hist, x_build)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def overlap_statistics(x, radius, nbr_start, nbr_j, lo, hi, periodic, ratio_limit):
     """(number of contacts, contacts with overlap > ratio_limit * smaller radius, max overlap / smaller radius)."""
     box = hi - lo

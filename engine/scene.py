@@ -42,7 +42,7 @@ def lattice_points(region: dict, spacing: float, radius: float) -> np.ndarray:
     return grid[region_contains(region, grid, np.full(len(grid), radius))]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _place_spheres(existing_x, existing_r, radii, candidates, shape, lo, hi, center, cyl_radius, grid_lo, cell,
                    ncell):
     """Random sequential addition: candidates[k] (uniform in the region's bounding box) are tried in order.

@@ -86,7 +86,10 @@ class Simulation:
         self.thermo_file = "thermo.csv"
         self.thermo: CsvSeries | None = None
         self.next_id = 1
-        self.dirty = True  # forces must be recomputed before the next step
+        # forces must be evaluated before the next step: only changes of the particle set or their velocities
+        # do this; a model change (walls, gravity, materials) acts from the next step's force evaluation, so
+        # a restart continues bitwise whatever the continuation script declares
+        self.dirty = True
         self.lost_total = 0
         self.timing = dict(pair=0.0, neigh=0.0, comm=0.0, modify=0.0, output=0.0, other=0.0, total=0.0,
                            compile=0.0, steps=0, particles=0, particle_steps=0)
@@ -158,7 +161,6 @@ class Simulation:
             self.log.warning(f"material type {t}: Young's modulus {y:g} Pa < 5e6 Pa (LIGGGHTS calls such "
                              "particles soft and refuses them)")
         self.materials[t] = (y, nu, rho)
-        self.dirty = True
 
     def create_interaction(self, fields: Fields):
         types = fields.raw("types", required=True)
@@ -176,7 +178,6 @@ class Simulation:
             friction=fields.number("friction", 0.0, minimum=0.0),
             rolling_friction=fields.number("rolling_friction", 0.0, minimum=0.0),
             cohesion_energy_density=fields.number("cohesion_energy_density", 0.0, minimum=0.0))
-        self.dirty = True
 
     def create_contact_model(self, fields: Fields):
         model = dict(normal=fields.string("normal", required=True, choices=NORMAL_MODELS),
@@ -192,7 +193,6 @@ class Simulation:
             raise fields.error("characteristic_velocity", "must be >= 0.01 m/s (LIGGGHTS' limit)")
         model["characteristic_velocity"] = velocity or 0.0
         self.model = model
-        self.dirty = True
 
     def create_wall(self, fields: Fields):
         name = fields.string("name", required=True)
@@ -219,7 +219,6 @@ class Simulation:
         self.plane_pos = np.array([old_positions.get(w["name"], w["position"]) for w in planes], dtype=np.float64)
         if fresh_history:
             self.wall_hist = np.zeros((0, 0, 0))
-        self.dirty = True
 
     def _add_particles(self, t: int, positions, radii, velocity, omega):
         n = len(positions)
@@ -336,16 +335,12 @@ class Simulation:
             raise fields.error("name", f"names no modifier '{name}' (create it first)")
         if name not in self.active:
             self.active.append(name)
-        if self.modifiers[name]["kind"] == "gravity":
-            self.dirty = True
 
     def cmd_unfix(self, fields: Fields):
         name = fields.string("name", required=True)
         if name not in self.active:
             raise fields.error("name", f"names no fixed modifier '{name}'")
         self.active.remove(name)
-        if self.modifiers[name]["kind"] == "gravity":
-            self.dirty = True
 
     def cmd_set(self, fields: Fields):
         prop = fields.string("property", required=True,
@@ -354,7 +349,6 @@ class Simulation:
             self.dt = fields.number("value", required=True, positive=True)
         elif prop == "skin":
             self.skin = fields.number("value", required=True, positive=True)
-            self.dirty = True
         elif prop == "thermo":
             self.thermo_every = fields.integer("every", 0, minimum=0)
             columns = fields.strings("columns", [])

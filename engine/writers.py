@@ -55,10 +55,8 @@ def write_vtp(path: Path, ids, types, x, v, f, omega, radius):
     poly = vtk.vtkPolyData()
     poly.SetPoints(points)
     cells = vtk.vtkCellArray()
-    connectivity = np.empty(2 * n, dtype=np.int64)
-    connectivity[0::2] = 1
-    connectivity[1::2] = np.arange(n)
-    cells.SetCells(n, numpy_to_vtkIdTypeArray(connectivity, deep=True))
+    cells.SetData(numpy_to_vtkIdTypeArray(np.arange(n + 1, dtype=np.int64), deep=True),
+                  numpy_to_vtkIdTypeArray(np.arange(n, dtype=np.int64), deep=True))
     poly.SetVerts(cells)
     data = poly.GetPointData()
     for name, values in (("id", np.asarray(ids, dtype=np.int64)), ("type", np.asarray(types, dtype=np.int32)),
