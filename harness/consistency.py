@@ -200,8 +200,9 @@ def compare_runs(series: list[dict], reference: list[dict], overrides: dict | No
                 results.append(QuantityResult(kind, name, quantity, None, MISSING,
                                               message=f"{quantity} missing in the run's {kind} {name!r}"))
                 continue
-            y_ref = np.array([np.nan if v is None else v for v in values], dtype=float)
-            y = np.array([np.nan if v is None else v for v in mine["columns"][quantity]], dtype=float)
+            # None (a non-finite value in the store's JSON) becomes NaN with dtype=float
+            y_ref = np.array(values, dtype=float)
+            y = np.array(mine["columns"][quantity], dtype=float)
             results.append(compare_trajectory(kind, name, quantity, ref["columns"][x_column], y_ref,
                                               mine["columns"][x_column], y, settings))
     return results

@@ -108,7 +108,11 @@ def write_record(record: dict) -> None:
     folder = Path(record["folder"])
     if folder.is_dir():
         tmp = folder / (RECORD_FILE + ".tmp")
-        tmp.write_text(json.dumps(record, indent=1, allow_nan=False))
+        try:
+            text = json.dumps(record, indent=1, allow_nan=False)
+        except ValueError:  # a NaN in an engine's timing or a config: Python's json reads NaN back
+            text = json.dumps(record, indent=1)
+        tmp.write_text(text)
         os.replace(tmp, folder / RECORD_FILE)
 
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import fnmatch
 import hashlib
+import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -318,8 +319,9 @@ def testcase_root(target: TargetDefinition, working_tree: bool = False) -> Path:
         return Path(repo.working_tree_dir)
     repo = gitrepo.open_repository(target.testcases_repository)
     commit = gitrepo.resolve(repo, target.testcases_revision).hexsha
-    key = hashlib.sha1(str(target.testcases_repository).encode()).hexdigest()[:12]
-    root = builds_dir() / "testcases" / key / commit
+    # one export per repository, commit and set of folders (another target may list other folders)
+    key = hashlib.sha1(json.dumps([str(target.testcases_repository), sorted(target.testcases)]).encode())
+    root = builds_dir() / "testcases" / key.hexdigest()[:12] / commit
     if not (root / ".done").is_file():
         gitrepo.replace_folder(root)
         for folder in target.testcases:

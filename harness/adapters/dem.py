@@ -7,6 +7,7 @@ VTK PolyData dumps ``post/<prefix>_<step>.vtp``.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import pandas as pd
@@ -91,7 +92,7 @@ class DemAdapter(EngineAdapter):
             return {}
         timing = {}
         for key, value in data.items():
-            if isinstance(value, (int, float)) and not isinstance(value, bool):
+            if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
                 timing[key] = float(value)
         for key in TIMING_KEYS:
             timing.setdefault(key, 0.0)

@@ -19,6 +19,8 @@ def configure(parser):
                         help="submit runs to an existing Dask distributed scheduler (tcp://host:8786); "
                              "run folders must be on a file system the workers share")
     parser.add_argument("--force-build", action="store_true", help="rebuild the targets first")
+    parser.add_argument("--no-reference", action="store_true",
+                        help="do not also run the reference targets of the named targets")
 
 
 def run(args) -> int:
@@ -28,6 +30,8 @@ def run(args) -> int:
 
     setup_store()
     targets, problems = select_targets(args.targets)
+    if args.targets and not args.no_reference:
+        targets = with_references(targets)
     if args.jobs < 1:
         from harness.adapters.base import UserError
 
@@ -46,3 +50,20 @@ def run(args) -> int:
           f"{report.skipped} already done (use --all to run them again); {len(report.problems)} problems; "
           f"{report.elapsed:.1f} s")
     return 1 if failed or report.problems else 0
+
+
+def with_references(targets):
+    """The named targets and, after them, their reference targets (transitively), each once.
+
+    A check needs the reference's runs; they are cached, so naming only the target under test is enough.
+    """
+    from harness.targets import reference_of
+
+    chosen = list(targets)
+    names = {t.name for t in chosen}
+    for target in chosen:  # grows while iterating: references of references
+        reference = reference_of(target)
+        if reference is not None and reference.name not in names:
+            chosen.append(reference)
+            names.add(reference.name)
+    return chosen
