@@ -4,8 +4,10 @@ Tests that need the binary skip with the reason when it is absent; CI installs i
 """
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -80,3 +82,26 @@ thermo_style    custom step atoms ke c_spin cpu
 run             500
 """
 N_FREE_FALL = 6 * 6 * 3
+
+
+def harness(home: Path, *args: str, targets: Path | None = None, check: bool = True):
+    cmd = [sys.executable, "-m", "harness.cli", "--machine", "testbox", "--home", str(home)]
+    if targets is not None:
+        cmd += ["--targets", str(targets)]
+    result = subprocess.run(cmd + list(args), cwd=PROJECT, capture_output=True, text=True, timeout=300)
+    if check:
+        assert result.returncode == 0, result.stdout + result.stderr
+    return result
+
+
+def records(home: Path, target: str) -> dict[str, dict]:
+    """run.json records of a target's runs by 'test case/run'."""
+    found = {}
+    for path in (home / "runs" / "testbox" / target).rglob("run.json"):
+        record = json.loads(path.read_text())
+        found[f"{record['testcase']}/{record['run']}"] = record
+    return found
+
+
+def series(record: dict, kind: str) -> dict:
+    return next(s for s in record["series"] if s["kind"] == kind)["columns"]

@@ -3,41 +3,16 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from harness.consistency import compare_runs, run_level
-from liggghts_support import LIGGGHTS, PROJECT, needs_liggghts, needs_mpirun
+from liggghts_support import LIGGGHTS, harness, needs_liggghts, needs_mpirun, records, series
 
 TUTORIALS = Path("/usr/share/doc/liggghts/examples/LIGGGHTS/Tutorials_public")
 pytestmark = needs_liggghts
-
-
-def harness(home: Path, *args: str, targets: Path | None = None, check: bool = True):
-    cmd = [sys.executable, "-m", "harness.cli", "--machine", "testbox", "--home", str(home)]
-    if targets is not None:
-        cmd += ["--targets", str(targets)]
-    result = subprocess.run(cmd + list(args), cwd=PROJECT, capture_output=True, text=True, timeout=300)
-    if check:
-        assert result.returncode == 0, result.stdout + result.stderr
-    return result
-
-
-def records(home: Path, target: str) -> dict[str, dict]:
-    """run.json records of a target's runs by 'test case/run'."""
-    found = {}
-    for path in (home / "runs" / "testbox" / target).rglob("run.json"):
-        record = json.loads(path.read_text())
-        found[f"{record['testcase']}/{record['run']}"] = record
-    return found
-
-
-def series(record: dict, kind: str) -> dict:
-    return next(s for s in record["series"] if s["kind"] == kind)["columns"]
 
 
 @pytest.fixture(scope="module")
