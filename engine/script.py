@@ -1,8 +1,8 @@
 """JSON command scripts (after seed 003): loading, ``${NAME}`` variables, and validated field access.
 
 A script is a JSON list of objects, each with a ``command`` (create, get, set, fix, unfix, run) and fields.
-``${NAME}`` anywhere in a string is replaced by the value given with ``-var NAME VALUE``; a string that is
-exactly ``"${NAME}"`` becomes a number when the value parses as one.
+``${NAME}`` anywhere in a string is replaced by the value given with ``-var NAME VALUE``; a string that held
+a variable becomes a number when the filled-in text parses as one (``"${N}"``, ``"-${HALF_WIDTH}"``).
 """
 from __future__ import annotations
 
@@ -35,7 +35,10 @@ def substitute(value, variables: dict[str, str], where: str):
                 raise InputError(f"{where}: variable '${{{name}}}' has no value (pass -var {name} VALUE)")
         if whole:
             return _number_or_text(variables[whole.group(1)])
-        return _VARIABLE.sub(lambda m: variables[m.group(1)], value)
+        if not _VARIABLE.search(value):
+            return value
+        # "-${W}" or "${A}e-3": a filled-in string that reads as a number is one
+        return _number_or_text(_VARIABLE.sub(lambda m: variables[m.group(1)], value))
     if isinstance(value, list):
         return [substitute(v, variables, where) for v in value]
     if isinstance(value, dict):

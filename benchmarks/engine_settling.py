@@ -1,0 +1,66 @@
+"""Speed and memory of the bundled engine on the settling scene (issue 2).
+
+N spheres (r = 1.5 mm) are packed at random into a box of plane walls and settle under gravity: Hertz +
+tangential history, Y = 5e6 Pa, nu = 0.45, e = 0.5, mu = 0.3, rho = 2500 kg/m^3, dt = 1e-5 s. The scene is
+engine/examples/settling.json. After SETTLE steps (bed formed) the engine runs MEASURE more steps; the
+figure is the particle-steps per second of that second run (from the engine's log), and the peak resident
+memory of the engine process (os.wait4 rusage).
+
+    python benchmarks/engine_settling.py                 # N = 1000 and 10000
+    python benchmarks/engine_settling.py --sizes 10000 --settle 30000 --measure 2000
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+SCENE = REPO / "engine" / "examples" / "settling.json"
+LOOP = re.compile(r"Loop time of ([\d.e+-]+) s for (\d+) steps with (\d+) particles \(([\d.e+-]+) particle-steps/s\)")
+
+
+def run_engine(folder: Path, variables: dict) -> tuple[str, int]:
+    """Run the engine as a program; returns (log text, peak RSS in kB)."""
+    cmd = [sys.executable, "-m", "engine", "-in", str(SCENE), "-log", "log.dem"]
+    for k, v in variables.items():
+        cmd += ["-var", k, str(v)]
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    proc = subprocess.Popen(cmd, cwd=folder, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(proc.pid, 0)
+    err = proc.stderr.read().decode()
+    if os.waitstatus_to_exitcode(status) != 0:
+        raise SystemExit(f"engine failed: {err.strip()}")
+    return (folder / "log.dem").read_text(), usage.ru_maxrss
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10000])
+    parser.add_argument("--settle", type=int, default=30000, help="steps until the bed has formed")
+    parser.add_argument("--measure", type=int, default=2000, help="steps timed on the settled bed")
+    args = parser.parse_args()
+    print(f"{'N':>7} {'settle p-steps/s':>17} {'settled p-steps/s':>18} {'contacts':>9} {'ke end (J)':>11} "
+          f"{'peak RSS (MB)':>14}")
+    for n in args.sizes:
+        half_width = 0.03 * math.sqrt(n / 10000)  # same bed height (about 6.5 cm) for every N
+        with tempfile.TemporaryDirectory() as tmp:
+            log, rss_kb = run_engine(Path(tmp), dict(N=n, SEED=1, HALF_WIDTH=half_width, HEIGHT=0.13,
+                                                     DUMP_EVERY=10 ** 9, SETTLE_STEPS=args.settle,
+                                                     MEASURE_STEPS=args.measure))
+            loops = LOOP.findall(log)
+            with open(Path(tmp) / "thermo.csv") as handle:
+                last = list(csv.DictReader(handle))[-1]
+        settle_rate, settled_rate = float(loops[0][3]), float(loops[1][3])
+        print(f"{n:>7} {settle_rate:>17.3e} {settled_rate:>18.3e} {last['contacts']:>9} {float(last['ke']):>11.3e} "
+              f"{rss_kb / 1024:>14.1f}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
