@@ -120,3 +120,16 @@ def test_a_new_binary_makes_earlier_runs_outdated(store):
     forced = build_target(target, "m1", force=True)                # rebuilt binary of the same commit
     run.refresh_from_db()
     assert run.state == "outdated" and forced.status == "complete"
+
+
+def test_repository_url_is_mirrored_and_fetched(store):
+    repo = git_repo(store / "upstream")
+    first = commit_files(repo, {"engine/__main__.py": fake_engine_source(), "engine/__init__.py": ""}, "v1")
+    path = store / "targets" / "remote.json"
+    path.parent.mkdir()
+    path.write_text(json.dumps({"repository": (store / "upstream").as_uri(), "revision": "HEAD"}))
+    target = load_target_file(path)
+    assert target.repository.startswith("file://")
+    assert build_target(target, "m1").commit == first
+    second = commit_files(repo, {"engine/NOTES": "new upstream commit"}, "v2")
+    assert build_target(target, "m1").commit == second        # the mirror fetched the new commit
