@@ -7,6 +7,7 @@ urlpatterns = [
     path("", views.overview, name="overview"),
     path("m/<int:machine_id>/t/<int:target_id>/", views.folder, name="folder-root"),
     path("m/<int:machine_id>/t/<int:target_id>/f/<path:folder>/", views.folder, name="folder"),
+    path("testcases/<path:testcase>/", views.testcase_runs, name="testcase"),
     path("runs/<int:run_id>/", views.run_detail, name="run"),
     path("runs/<int:run_id>/plot/<int:series_id>.png", views.run_plot, name="run-plot"),
     path("runs/<int:run_id>/files/<path:relative>", views.run_file, name="run-file"),

@@ -43,8 +43,17 @@ def _png(fig) -> HttpResponse:
 
 def overview(request):
     mode, _ = _mode(request)
-    machines = Run.objects.overview()
-    return render(request, "webfrontend/overview.html", {"machines": machines, "mode": mode})
+    selected = request.GET.get("machine", "")
+    runs = Run.objects.filter(machine_id=selected) if selected.isdigit() else Run.objects.all()
+    return render(request, "webfrontend/overview.html", {
+        "machines": runs.overview(), "mode": mode, "selected": selected,
+        "all_machines": Machine.objects.order_by("name")})
+
+
+def testcase_runs(request, testcase):
+    case = get_object_or_404(TestCase, path=testcase.strip("/"))
+    return render(request, "webfrontend/testcase.html", {
+        "testcase": case, "runs": Run.objects.filter(testcase=case).listing()})
 
 
 def folder(request, machine_id, target_id, folder=""):

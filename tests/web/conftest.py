@@ -6,12 +6,19 @@ import os
 
 import pytest
 
+# webfrontend.settings is a superset of harness.settings, so the other test folders work with it too;
+# the variable is put back afterwards, so programs other tests start keep the settings they expect
+_previous = os.environ.get("DJANGO_SETTINGS_MODULE")
 os.environ["DJANGO_SETTINGS_MODULE"] = "webfrontend.settings"
 
 import django  # noqa: E402
 from django.conf import settings  # noqa: E402
 
 django.setup()
+if _previous is None:
+    del os.environ["DJANGO_SETTINGS_MODULE"]
+else:
+    os.environ["DJANGO_SETTINGS_MODULE"] = _previous
 if "webfrontend" not in settings.INSTALLED_APPS:
     raise pytest.UsageError("Django was configured before tests/web with settings lacking the dashboard; "
                             "use DJANGO_SETTINGS_MODULE=webfrontend.settings (a superset of harness.settings)")

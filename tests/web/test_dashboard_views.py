@@ -91,6 +91,18 @@ class OverviewTest(DashboardTest):
         html = self.get("/").content.decode()
         self.assertIn("150 successful", html)  # 3 of every 4 bulk runs succeed
 
+    def test_machine_selection(self):
+        from harness.models import Machine
+
+        other = Machine.objects.create(name="cluster7")
+        add_bulk_runs(3, other, self.s["master"], self.s["new_build"])
+        html = self.get("/").content.decode()
+        self.assertIn("machine cluster7", html)
+        self.assertIn("machine ws1", html)
+        html = self.get(f"/?machine={other.pk}").content.decode()
+        self.assertIn("machine cluster7", html)
+        self.assertNotIn("machine ws1", html)
+
     def test_empty_store_says_how_to_fill_it(self):
         Run.objects.all().delete()
         self.assertIn("harness run", self.get("/").content.decode())
@@ -127,6 +139,14 @@ class FolderTest(DashboardTest):
                                         show="inconsistent")).content.decode()
         self.assertIn(f'value="{self.s["inconsistent"].pk}"', html)
         self.assertNotIn(f'value="{self.s["older"].pk}"', html)
+
+    def test_all_runs_of_a_test_case_across_targets(self):
+        html = self.get(self.folder_url("contact_models/hertz/impact")).content.decode()
+        self.assertIn('href="/testcases/contact_models/hertz/impact/"', html)
+        html = self.get("/testcases/contact_models/hertz/impact/").content.decode()
+        for key in ("reference", "inconsistent", "older"):
+            self.assertIn(f'value="{self.s[key].pk}"', html)
+        self.assertIn("dem-v1@v1", html)
 
     def test_unknown_folder_is_404(self):
         self.assertEqual(self.client.get(self.folder_url("no/such")).status_code, 404)
