@@ -158,6 +158,11 @@ class LiggghtsAdapter(EngineAdapter):
     def log_file(self) -> str:
         return LOG_NAME
 
+    def accepts_script(self, script: str) -> bool:
+        """LIGGGHTS reads its own input language under any name (in.*, *.in); a plain ``script`` that is a
+        JSON scene of the bundled engine is not for it (name both with ``{"dem": ..., "liggghts": ...}``)."""
+        return not script.endswith(".json")
+
     def read_thermo(self, folder, mapping=None):
         """Thermo of all run blocks as one DataFrame: columns step, atoms, ke (J), rke (J), then the log's own.
 

@@ -155,6 +155,11 @@ def test_vtk_files_from_dump_commands(tmp_path):
     assert [p.name for p in adapter.vtk_files(tmp_path)] == ["p_0.vtk", "p_200.vtk", "p_1000.vtk"]
 
 
+def test_accepts_only_liggghts_scripts():
+    assert adapter.accepts_script("in.settling") and adapter.accepts_script("settling.in")
+    assert not adapter.accepts_script("scene.json")
+
+
 def test_command_line():
     assert adapter.command(["/usr/bin/liggghts"], "in.scene", {"N": 10, "dt": "1e-5"}, "log.liggghts") == [
         "/usr/bin/liggghts", "-in", "in.scene", "-var", "N", "10", "-var", "dt", "1e-5", "-log", "log.liggghts"]
