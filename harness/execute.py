@@ -30,6 +30,8 @@ TAIL_LINES = 60
 #: process groups of runs in flight in this process: run folder -> pid (killed on interrupt)
 _running: dict[str, int] = {}
 _running_lock = threading.Lock()
+#: set while the harness is being interrupted: runs ending now are recorded as interrupted, not as killed
+_interrupted = threading.Event()
 
 
 def now_iso() -> str:
@@ -56,12 +58,20 @@ def kill_group(pid: int, grace: float = 2.0) -> None:
 
 
 def kill_all_running() -> list[str]:
-    """Kill every engine process group started by this process; returns their run folders."""
+    """Kill every engine process group started by this process; returns their run folders.
+
+    Runs whose engine dies this way record themselves as interrupted until ``clear_interrupt()``.
+    """
+    _interrupted.set()
     with _running_lock:
         items = list(_running.items())
     for _folder, pid in items:
         kill_group(pid, grace=0.5)
     return [folder for folder, _pid in items]
+
+
+def clear_interrupt() -> None:
+    _interrupted.clear()
 
 
 def tail(path: Path, lines: int = TAIL_LINES) -> str:
@@ -222,6 +232,10 @@ def execute(spec: dict) -> dict:
     record["wall_time"] = time.perf_counter() - start
     record["finished"] = now_iso()
     record["exit_code"] = code
+    if _interrupted.is_set():
+        fail(record, "interrupted", "the harness was interrupted")
+        write_record(record)
+        return record
     record["stderr_tail"] = tail(folder / STDERR, 20)
     record["log_tail"] = tail(folder / adapter.log_file()) or tail(folder / STDOUT)
     scan = adapter.scan_log(folder)

@@ -314,6 +314,7 @@ def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out
     except KeyboardInterrupt:
         ex.kill_all_running()
         pool.cancel(running)
+        pool.close()  # let the local workers see their engines die and stop before the records are written
         for task in running.values():
             record = ex.fail(ex.base_record(task.spec), "interrupted", "the harness was interrupted")
             record["finished"] = ex.now_iso()
@@ -323,6 +324,7 @@ def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out
         raise
     finally:
         pool.close()
+        ex.clear_interrupt()
 
 
 def run_targets(targets: list[TargetDefinition], options: RunOptions, out=None) -> RunReport:
