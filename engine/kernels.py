@@ -82,8 +82,9 @@ def _contact_block(c: Combination, wall: bool, indent: str) -> str:
         if not c.tangential_damping:
             lines.append("gt = 0.0")
         if wall:
-            # the wall does not spin; LIGGGHTS uses the full radius as the particle's lever at walls
-            lines += ["cri = ri", "wrx = ri * wix", "wry = ri * wiy", "wrz = ri * wiz"]
+            # the wall does not spin; the particle's lever is r - d/2 as for pairs (LIGGGHTS 3.8
+            # surface_model_default.h; confirmed by the cross-code wall_oblique case against LIGGGHTS)
+            lines += ["cri = ri - 0.5 * d", "wrx = cri * wix", "wry = cri * wiy", "wrz = cri * wiz"]
         else:
             lines += ["cri = ri - 0.5 * d", "crj = rj - 0.5 * d",
                       "wrx = cri * wix + crj * omega[j, 0]", "wry = cri * wiy + crj * omega[j, 1]",

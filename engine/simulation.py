@@ -281,7 +281,8 @@ class Simulation:
         r = fields.number("radius", required=True, positive=True)
         spacing = fields.number("spacing", required=True, positive=True)
         if spacing < 2 * r:
-            raise fields.error("spacing", f"must be >= 2 radius = {2 * r:g} m (spheres would overlap)")
+            self.log.warning(f"{fields.where}: lattice spacing {spacing:g} m < 2 radius: neighbors start "
+                             f"with an overlap of {2 * r - spacing:g} m")
         points = lattice_points(self._region(fields), spacing, r)
         self._add_particles(t, points, np.full(len(points), r), fields.vector("velocity", default=[0, 0, 0]),
                             fields.vector("omega", default=[0, 0, 0]))
