@@ -18,6 +18,9 @@ Beyond the thesis:
 * the first abscissa value where |x_k - x_ref,k| > eps (the trajectory leaves its band);
 * runs of different length (one stopped early) are scored on their common steps and reported as
   ``length_mismatch``, which counts as inconsistent;
+* thermo columns the reference has and the run lacks are not compared, except the required atoms, ke and
+  rke (thesis 4.4.1), which are reported ``missing`` (so another code with other thermo columns can be the
+  reference);
 * text files (thesis 4.4.3) are compared word by word; numbers within eps = max(rtol |ref|, atol)
   (rtol default 0.1, the same 10 % margin), scored with eq. 4.3.
 """
@@ -32,6 +35,8 @@ LENGTH_MISMATCH, MISSING = "length_mismatch", "missing"
 FAILING_LEVELS = (INCONSISTENT, LENGTH_MISMATCH, MISSING)
 #: thermo columns that measure the computer, not the physics
 NOT_PHYSICS = {"cpu", "cpuremain", "elapsed", "elaplong", "wall", "wall_time", "walltime"}
+#: thermo quantities every run must have (thesis 4.4.1); other reference columns are compared when present
+REQUIRED_THERMO = ("atoms", "ke", "rke")
 RELATIVE_FLOOR = 1e-6
 TINY = 1e-300
 
@@ -196,6 +201,9 @@ def compare_runs(series: list[dict], reference: list[dict], overrides: dict | No
             settings = _settings_for(overrides, quantity, f"{name}:{quantity}", name)
             if settings.get("ignore"):
                 continue
+            if (kind == "thermo" and mine is not None and quantity not in mine["columns"]
+                    and quantity not in REQUIRED_THERMO):
+                continue  # a column only the reference prints (another code, another thermo style)
             if mine is None or quantity not in mine["columns"] or x_column not in mine["columns"]:
                 results.append(QuantityResult(kind, name, quantity, None, MISSING,
                                               message=f"{quantity} missing in the run's {kind} {name!r}"))

@@ -131,3 +131,6 @@ def test_compare_runs_covers_thermo_plots_textfiles_and_overrides():
     assert ("thermo", "ke") not in {(r.series_name, r.quantity) for r in ignored}
     missing = compare_runs(run[:1], ref)
     assert {r.level for r in missing if r.series_kind != "thermo"} == {MISSING}
+    other_code = compare_runs([_thermo(steps, ke=ke, atoms=[10] * 10)],
+                              [_thermo(steps, ke=ke, atoms=[10] * 10, rke=[0.0] * 10, com_z=ke)])
+    assert {(r.quantity, r.level) for r in other_code} == {("ke", PERFECT), ("atoms", PERFECT), ("rke", MISSING)}
