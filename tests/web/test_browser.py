@@ -117,3 +117,12 @@ class BrowserTest(StaticLiveServerTestCase):
         assert page.locator("table.results tr", has_text="ke").first.locator("td").nth(5).inner_text() == "1000"
         assert self.image_loaded(".plots img")
         self.screenshot("dashboard_consistency.png")
+
+        # the history of the test case over the builds of dem-master, oldest first
+        page.goto(self.live_server_url + f"/runs/{s['inconsistent'].pk}/")
+        page.get_by_role("link", name="runs of this test case over the builds of dem-master").click()
+        assert page.locator("h1").inner_text() == "History of contact_models/hertz/impact on dem-master"
+        builds = page.locator("table.runs tbody tr td:nth-child(4)").all_inner_texts()
+        assert builds == ["dem-master@HEAD~1 bbbbbbb", "dem-master@HEAD ccccccc"]
+        assert self.image_loaded("figure img")
+        self.screenshot("dashboard_history.png")

@@ -86,4 +86,6 @@ def test_history_has_revisions_in_order():
     ax_c, ax_t = fig.axes
     assert [t.get_text() for t in ax_t.get_xticklabels()] == ["v1 (aaaaaaa)", "bbbbbbb"]
     assert (ax_c.get_ylabel(), ax_t.get_ylabel()) == ("lowest C [1]", "wall time [s]")
+    assert fig.get_suptitle() == "contact_models/hertz/impact on dem-master"
+    assert ax_c.get_title() == "lowest consistency C per revision"
     assert list(ax_t.lines[0].get_ydata()) == [2.0, 1.0]
