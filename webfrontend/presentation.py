@@ -16,6 +16,12 @@ TIMING_CATEGORIES = (("pair", "#1f77b4"), ("neigh", "#ff7f0e"), ("comm", "#2ca02
 DIFF_LINE_LIMIT = 5000
 
 
+def breadcrumbs(path: str) -> list[tuple[str, str]]:
+    """(name, folder path) of each level of ``a/b/c``: a, a/b, a/b/c."""
+    parts = path.split("/") if path else []
+    return [(name, "/".join(parts[:i + 1])) for i, name in enumerate(parts)]
+
+
 def revision_label(build) -> str:
     """Short name of a build for lists and plot axes: the revision as asked and the commit."""
     commit = (build.commit or "")[:7]

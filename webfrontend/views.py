@@ -69,8 +69,7 @@ def folder(request, machine_id, target_id, folder=""):
         "machine": machine, "target": target, "whole": whole, "mode": mode, "show": show,
         "children": [c for c in children if c.matches(show)], "runs": listed,
         "categories": CONSISTENCY_CATEGORIES if mode == "consistency" else STATE_CATEGORIES,
-        "crumbs": [(p, "/".join(whole.path.split("/")[:i + 1])) for i, p in enumerate(whole.path.split("/"))
-                   if whole.path]})
+        "crumbs": presentation.breadcrumbs(whole.path)})
 
 
 def run_detail(request, run_id):

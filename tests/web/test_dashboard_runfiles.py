@@ -21,7 +21,7 @@ def test_script_per_engine_family_and_liggghts_log(tmp_path):
     assert '"liggghts": "in.scene"' in texts["run configuration"].text
 
 
-def test_long_text_is_cut_and_artifacts_sorted_naturally(tmp_path, settings=None):
+def test_long_text_is_cut_and_artifacts_sorted_naturally(tmp_path):
     rf = folder_with(tmp_path, {}, {"log.txt": "x" * 100, "post/dump_1000.vtk": "", "post/dump_500.vtk": "",
                                     "post/torque.csv": "t\n", "core": "binary"})
     cut = rf.read("log.txt", limit=10)
