@@ -2,9 +2,8 @@
 
 testcases/crosscode/ holds each scene in both input languages; ``harness run liggghts-crosscode
 dem-crosscode`` runs both and ``harness check dem-crosscode`` scores the engine against LIGGGHTS (thesis
-eqs. 4.2-4.4). Known difference, reported to the engine's owner: the engine's lever of the tangential force
-at walls is the radius r, LIGGGHTS 3.8 uses r - overlap/2 (surface_model_default.h). The rke tests below
-are strict xfails until the engine changes; they pass with that one-line change (verified on a patched copy).
+eqs. 4.2-4.4). These tests found that the engine's lever of the tangential force at walls was the radius r
+where LIGGGHTS 3.8 uses r - overlap/2 (surface_model_default.h); fixed in the engine (commit 8bba768).
 """
 from __future__ import annotations
 
@@ -19,8 +18,6 @@ from harness.postprocess import read_vtk_points
 from liggghts_support import harness, needs_liggghts, records, series
 
 pytestmark = needs_liggghts
-WALL_LEVER = ("engine bug: lever of the wall tangential force is r, LIGGGHTS 3.8 uses r - overlap/2 "
-              "(engine/kernels.py wall branch: cri = ri - 0.5 * d; wr = cri * wi)")
 
 
 @pytest.fixture(scope="module")
@@ -66,20 +63,19 @@ def test_same_initial_state(crosscode):
 def test_lattice_drop_ke_consistent(crosscode):
     _, _, scores, _, _ = crosscode
     ke = scores["testcases/crosscode/lattice_drop/drop"]["ke"]
-    assert ke.value >= 0.9, ke  # measured C = 0.92 now, 0.999 with the wall lever fixed
+    assert ke.level == "perfect", ke  # measured C = 0.999 (0.92 with the engine's old wall lever r)
 
 
-@pytest.mark.xfail(strict=True, reason=WALL_LEVER)
 def test_lattice_drop_rke_consistent(crosscode):
     _, _, scores, check, junit = crosscode
     rke = scores["testcases/crosscode/lattice_drop/drop"]["rke"]
-    assert rke.value >= 0.9, rke  # measured C = 0.76 now, 0.989 with the wall lever fixed
+    assert rke.level == "perfect", rke  # measured C = 0.989 (0.76 with the engine's old wall lever r)
     assert check.returncode == 0 and 'failures="0"' in junit.read_text()
 
 
-@pytest.mark.xfail(strict=True, reason=WALL_LEVER)
 def test_oblique_wall_impact_spin_matches(crosscode):
-    """One oblique wall impact: LIGGGHTS' spin after it, to the 7 digits of its log (now 1.5 % apart)."""
+    """One oblique wall impact: LIGGGHTS' spin after it, to the 7 digits of its log (1.5 % apart with the
+    engine's old lever r)."""
     engine, reference, _, _, _ = crosscode
     name = "testcases/crosscode/wall_oblique/impact"
     a, b = series(engine[name], "thermo"), series(reference[name], "thermo")
