@@ -134,3 +134,11 @@ def test_compare_runs_covers_thermo_plots_textfiles_and_overrides():
     other_code = compare_runs([_thermo(steps, ke=ke, atoms=[10] * 10)],
                               [_thermo(steps, ke=ke, atoms=[10] * 10, rke=[0.0] * 10, com_z=ke)])
     assert {(r.quantity, r.level) for r in other_code} == {("ke", PERFECT), ("atoms", PERFECT), ("rke", MISSING)}
+
+
+def test_different_output_interval_is_scored_on_common_steps():
+    ref_steps = np.arange(0, 101, 10)
+    run_steps = np.arange(0, 101, 20)
+    r = compare_trajectory("thermo", "thermo", "ke", ref_steps, ref_steps * 1.0, run_steps, run_steps * 1.0)
+    assert r.level == LENGTH_MISMATCH and r.value == pytest.approx(1.0)
+    assert "steps differ" in r.message and "6 common steps" in r.message
