@@ -93,9 +93,14 @@ def prepare_folder(spec: dict) -> Path:
     """A fresh run folder holding the test case's files and the dependency's ``post/``."""
     folder = Path(spec["folder"])
     replace_folder(folder)
-    shutil.copytree(spec["source_folder"], folder, symlinks=True,
+    source_folder = Path(spec["source_folder"])
+    shutil.copytree(source_folder, folder, symlinks=True,
                     ignore=shutil.ignore_patterns("post", RECORD_FILE, ".git"))
     (folder / "post").mkdir(exist_ok=True)
+    # post/restart/ belongs to the test case (thesis 4.3.1: restart files the case needs); the rest of
+    # post/ is output, and a stale copy of it would be mistaken for this run's results
+    if (source_folder / "post" / "restart").is_dir():
+        shutil.copytree(source_folder / "post" / "restart", folder / "post" / "restart", symlinks=True)
     dependency = spec.get("dependency_folder")
     if dependency:
         source = Path(dependency) / "post"

@@ -54,7 +54,9 @@ def make_project(root: Path) -> Path:
                          "textfiles": ["post/state.txt"]}}
     files = {"engine/__init__.py": "", "engine/__main__.py": fake_engine_source(9.81),
              "cases/fall/scene.json": json.dumps(SCENE), "cases/fall/scripts/summary.sh": POST_SCRIPT,
-             "cases/fall/run.config": json.dumps({"runs": [fall, main_run]})}
+             "cases/fall/run.config": json.dumps({"runs": [fall, main_run]}),
+             "cases/fall/post/restart/bed.restart": "restart data the case needs",
+             "cases/fall/post/stale_output.csv": "left over from running the case in place"}
     for name, case in FAULTS.items():
         files[f"cases/faults/{name}/scene.json"] = json.dumps(case["scene"])
         files[f"cases/faults/{name}/scripts/fail.sh"] = "#!/bin/sh\necho 'cannot fit the curve' >&2\nexit 3\n"
@@ -110,6 +112,8 @@ def test_versions_built_run_and_checked_with_junit(project, store, capsys):
     main_run = Run.objects.get(target__name="good", name="main")
     assert main_run.state == "post_processed" and main_run.warning_count == 1
     assert (Path(main_run.folder) / "post" / "state.txt").is_file()        # dependency's post/ copied in
+    assert (Path(main_run.folder) / "post" / "restart" / "bed.restart").is_file()   # part of the test case
+    assert not (Path(main_run.folder) / "post" / "stale_output.csv").exists()     # output, not copied
     assert {s.kind for s in main_run.series.all()} == {"thermo", "plot", "textfile"}
     thermo = main_run.series.get(kind="thermo").columns
     assert thermo["step"][:3] == [0, 20, 40] and thermo["atoms"][0] == 2
