@@ -118,6 +118,12 @@ def read_declared(folder: Path, data: dict) -> tuple[dict[str, pd.DataFrame], li
             raise UserError(f"text file {decl['file']!r} not found in the run folder")
         words = path.read_text(encoding="utf-8", errors="replace").split()
         frames[decl["file"]] = pd.DataFrame({"word": words})
+        try:
+            # a numeric table with a header ("e_measured e_expected" then numbers) is also available to
+            # expectations under the file's stem: "restitution.e_measured" for restitution.txt
+            frames[Path(decl["file"]).stem] = read_table(path)
+        except UserError:
+            pass
         meta = {k: decl[k] for k in ("rtol", "atol") if k in decl}
         stored.append({"kind": "textfile", "name": decl["file"], "x_column": "", "columns": {"words": words},
                        "meta": meta})

@@ -76,7 +76,8 @@ def expand(entry: dict) -> list[dict]:
         del point["sweep"]
         point["name"] = point_name(entry["name"], sweep["variable"], value)
         point.setdefault("variables", {})[sweep["variable"]] = value
-        point["sweep_point"] = {"sweep": entry["name"], "variable": sweep["variable"], "value": value}
+        point["sweep_point"] = {"sweep": entry["name"], "variable": sweep["variable"], "value": value,
+                                "spec": sweep}
         points.append(point)
     return points
 
@@ -166,3 +167,52 @@ def plot(table: pd.DataFrame, sweep: dict, title: str, path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+# ------------------------------------------------------------------------------------------ from the store
+
+def series_frames(run) -> dict[str, pd.DataFrame]:
+    """A stored run's post-processed series as DataFrames keyed by name, abscissa column first."""
+    frames = {}
+    for series in run.series.all():
+        frame = pd.DataFrame(series.columns)
+        if series.x_column in frame.columns:
+            frame = frame[[series.x_column] + [c for c in frame.columns if c != series.x_column]]
+        frames[series.name] = frame
+    return frames
+
+
+@dataclass
+class SweepResult:
+    """A sweep of one run configuration of one test case, as found in the store."""
+
+    testcase: str
+    name: str
+    spec: dict
+    table: pd.DataFrame
+
+    @property
+    def order(self) -> float | None:
+        return observed_order(self.table["value"], self.table["error"])
+
+
+def sweeps_in_store(runs) -> list[SweepResult]:
+    """Group stored runs that are sweep points (``config.sweep_point``) into sweeps and tabulate them.
+
+    ``runs`` is a Run queryset, typically one build's runs on one machine; the sweep block is taken from
+    the points' run configuration (``config.sweep_point.spec``).
+    """
+    groups: dict[tuple[str, str], list] = {}
+    for run in runs.filter(config__has_key="sweep_point").select_related("testcase").prefetch_related("series"):
+        point = run.config["sweep_point"]
+        groups.setdefault((run.testcase.path, point["sweep"]), []).append(run)
+    results = []
+    for (testcase, name), members in sorted(groups.items()):
+        spec = members[0].config["sweep_point"]["spec"]
+        points = []
+        for run in members:
+            ok = run.state in ("post_processed", "consistency_checked", "executed")
+            quantity = measure(spec["error"], series_frames(run)) if ok else None
+            points.append(SweepPoint(float(run.config["sweep_point"]["value"]), run.wall_time, quantity, run.state))
+        results.append(SweepResult(testcase, name, spec, sweep_table(spec, points)))
+    return results

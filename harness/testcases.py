@@ -36,7 +36,8 @@ DEFAULT_TIMEOUT = 600.0
 #: folders of a test case that never hold a nested test case (thesis 4.3.1)
 NOT_TESTCASES = {"post", "meshes", "scripts", "restart", "__pycache__"}
 RUN_KEYS = {"name", "type", "nprocs", "mpi_options", "script", "variables", "depends_on", "post_scripts", "data",
-            "timeout", "thermo_columns", "consistency", "vtk", "expectations", "stability", "description"}
+            "timeout", "thermo_columns", "consistency", "vtk", "expectations", "stability", "description",
+            "sweep", "sweep_point"}
 #: a pseudo run name that carries a broken run.config into the store and the JUnit report
 CONFIG_RUN = "run.config"
 
@@ -187,6 +188,10 @@ def _validate_entry(problems: Problems, entry: dict, i: int, folder: Path, adapt
     if acceptance is not None and ("expectations" in entry or "stability" in entry):
         for message in acceptance.validate(entry):
             problems.add(json_path(*at), message)
+    from harness import sweep
+
+    for message in sweep.validate(entry):
+        problems.add(json_path(*at), message)
 
     script = entry.get("script")
     if script is None:
@@ -251,6 +256,12 @@ def parse_run_config(data, path: Path, adapter_name: str) -> tuple[list[RunEntry
         return [], file_problems.messages
     if not expect_type(file_problems, json_path("runs"), runs, list, "a list of run configurations"):
         return [], file_problems.messages
+    # a valid sweep block becomes one ordinary run per value (harness.sweep); an invalid one stays to be reported
+    from harness import sweep
+
+    runs = [point for entry in runs
+            for point in (sweep.expand(entry) if isinstance(entry, dict) and not sweep.validate(entry)
+                          and isinstance(entry.get("name"), str) else [entry])]
     for key in sorted(set(data) - {"runs", "description"}):
         file_problems.add(json_path(key), "unknown field (known: runs, description)")
     names = [r.get("name") for r in runs if isinstance(r, dict)]

@@ -1,0 +1,71 @@
+"""``harness sweep [TARGET ...] [-k PATTERN] [-j N] [--no-run]``: what accuracy costs in time.
+
+Runs the sweep points of the targets' run configurations that declare a ``sweep`` block (see
+``harness.sweep``), then writes for each sweep a CSV table and a log-log plot of error against wall time
+and against the swept value, with the observed convergence order, under ``$HARNESS_HOME/sweeps/``.
+"""
+import sys
+
+NAME = "sweep"
+HELP = "run sweeps (error against run time over a grid of a variable) and plot them"
+
+
+def configure(parser):
+    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names (default: all)")
+    parser.add_argument("-k", dest="pattern", metavar="PATTERN",
+                        help="only sweeps whose 'testcase/run' contains PATTERN")
+    parser.add_argument("-j", dest="jobs", type=int, default=1, metavar="N", help="runs in parallel (default 1)")
+    parser.add_argument("--no-run", action="store_true", help="only tabulate and plot runs already in the store")
+    parser.add_argument("--working-tree", action="store_true",
+                        help="take test cases from the working tree instead of testcases_revision")
+
+
+def run(args) -> int:
+    from harness import sweep as sw
+    from harness.builds import current_build
+    from harness.models import Run
+    from harness.paths import harness_home
+    from harness.runner import RunOptions, format_table, run_targets
+    from harness.store import setup_store
+    from harness.targets import select_targets
+
+    setup_store()
+    targets, problems = select_targets(args.targets)
+    for problem in problems:
+        print(f"harness: {problem}", file=sys.stderr)
+    failed_runs = 0
+    if not args.no_run:
+        # sweep points are named NAME@VARIABLE=VALUE: '@' selects exactly them
+        pattern = f"*{args.pattern}*@*" if args.pattern else "*@*"
+        options = RunOptions(machine=args.machine, pattern=pattern, jobs=args.jobs, working_tree=args.working_tree)
+        report = run_targets(targets, options)
+        failed_runs = len(report.failed)
+    found = 0
+    for target in targets:
+        build = current_build(target.name, args.machine)
+        if build is None:
+            continue
+        runs = Run.objects.filter(build=build, machine__name=args.machine)
+        for result in sw.sweeps_in_store(runs):
+            if args.pattern and args.pattern not in f"{result.testcase}/{result.name}":
+                continue
+            found += 1
+            out = harness_home() / "sweeps" / args.machine / target.name / result.testcase
+            out.mkdir(parents=True, exist_ok=True)
+            result.table.to_csv(out / f"{result.name}.csv", index=False)
+            title = f"{target.name}: {result.testcase}/{result.name}"
+            sw.plot(result.table, result.spec, title, out / f"{result.name}.png")
+            order = result.order
+            print(f"\n{title}  (error of {result.spec['error']['quantity']}, observed order "
+                  f"{'n/a' if order is None else f'{order:.2f}'})")
+            rows = [(result.spec["variable"], "wall s", "quantity", "error", "state")]
+            for _, row in result.table.iterrows():
+                rows.append((f"{row['value']:g}", "-" if row["wall_time"] != row["wall_time"] or row["wall_time"] is None
+                             else f"{row['wall_time']:.3f}", f"{row['quantity']:.6g}", f"{row['error']:.3g}",
+                             row["state"]))
+            print(format_table(rows))
+            print(f"table: {out / (result.name + '.csv')}\nplot:  {out / (result.name + '.png')}")
+    if not found:
+        print("harness: no sweep runs found (declare a 'sweep' block in a run.config)", file=sys.stderr)
+        return 1
+    return 1 if failed_runs or problems else 0
