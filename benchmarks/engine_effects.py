@@ -6,7 +6,7 @@ history; + SJKR cohesion; + CDT rolling friction; + EPSD2 instead of CDT; + five
 block. Every variant compiles its own kernel (first run only; cached on disk), and the figure is the loop
 time per particle-step from the engine's log.
 
-    python benchmarks/engine_effects.py [--steps 2000] [--side 20]
+    python benchmarks/engine_effects.py [--steps 2000] [--side 20] [--repeat 3]
 """
 from __future__ import annotations
 
@@ -63,6 +63,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--steps", type=int, default=2000)
     parser.add_argument("--side", type=int, default=20, help="spheres per lattice edge (N = side^3)")
+    parser.add_argument("--repeat", type=int, default=3, help="timed runs per variant (the best counts)")
     args = parser.parse_args()
     env = dict(os.environ, PYTHONPATH=str(REPO))
     base = None
@@ -70,14 +71,18 @@ def main():
     for label, options in VARIANTS:
         with tempfile.TemporaryDirectory() as tmp:
             (Path(tmp) / "scene.json").write_text(json.dumps(scene(args.side, args.steps, **options)))
-            # first call compiles (or loads from the disk cache); the second one is timed
-            for _ in range(2):
+            # first call compiles (or loads from the disk cache); then the best of `repeat` timed runs,
+            # since the machine is shared and a neighbor's job only ever makes a run slower
+            timings = []
+            for attempt in range(1 + args.repeat):
                 proc = subprocess.run([sys.executable, "-m", "engine", "-in", "scene.json"], cwd=tmp, env=env,
                                       capture_output=True, text=True)
                 if proc.returncode:
                     raise SystemExit(proc.stderr)
-            seconds, steps, n = LOOP.findall((Path(tmp) / "log.dem").read_text())[-1]
-        per = float(seconds) / (int(steps) * int(n)) * 1e9
+                seconds, steps, n = LOOP.findall((Path(tmp) / "log.dem").read_text())[-1]
+                if attempt:
+                    timings.append(float(seconds) / (int(steps) * int(n)) * 1e9)
+        per = min(timings)
         base = base or per
         print(f"{label:<34} {per:>19.1f} {per / base:>9.2f}", flush=True)
 

@@ -29,6 +29,7 @@ def test_same_seed_gives_byte_identical_outputs(engine_run):
     code_b, b = engine_run(pouring_scene(), sub="b")
     code_c, c = engine_run(pouring_scene(seed=6), sub="c")
     assert code_a == code_b == code_c == 0
+    assert read_csv(a / "thermo.csv")["contacts"][0] == 0  # the packing has no overlaps
     for name in ("thermo.csv", "post/particles_300.vtp", "post/particles_600.vtp"):
         assert filecmp.cmp(a / name, b / name, shallow=False), name
     assert not filecmp.cmp(a / "thermo.csv", c / "thermo.csv", shallow=False)

@@ -180,3 +180,17 @@ def test_cohesion_holds_sphere_under_ceiling(engine_run):
     code, folder = engine_run(scene(0.0), sub="loose")
     assert code == 0
     assert read_csv(folder / "series.csv")["z[1]"][-1] == pytest.approx(0.5 - R + 1e-5 - 0.5 * 9.81 * 0.03 ** 2, abs=2e-4)
+
+
+def test_moving_plane_lifts_resting_sphere(engine_run):
+    """A floor moving up at constant speed carries the sphere on it at that speed (wall velocity enters vr)."""
+    lift = 0.05
+    scene = [domain(), material(y=Y, nu=NU, rho=RHO), interaction(e=0.5, mu=0.3), model("hertz", "history"),
+             plane("lift", "z", 0.0, velocity=(0, 0, lift))] + gravity() + [
+        particle([0, 0, R]), timestep(1e-5)] + printer(2000, ["z[1]", "vz[1]"]) + [run(20000)]
+    code, folder = engine_run(scene)
+    assert code == 0
+    s = read_csv(folder / "series.csv")
+    assert s["vz[1]"][-1] == pytest.approx(lift, rel=0.02)
+    # resting on the plane (at z = lift t) with its static overlap m g / kn
+    assert s["z[1]"][-1] == pytest.approx(lift * 0.2 + R, abs=0.02 * R)

@@ -1,0 +1,105 @@
+"""The program contract: bad input gives one ERROR line naming command and field, exit code 2."""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from conftest import REPO, domain, interaction, material, model, particle, read_csv, run, timestep
+
+GOOD = [domain(), material(), interaction(), model("hertz", "history"), particle([0, 0, 0]), timestep(1e-5)]
+
+
+def replace(index, **fields):
+    """GOOD with command `index` (0-based) changed; a field set to None is removed."""
+    script = [dict(c) for c in GOOD]
+    for key, value in fields.items():
+        if value is None:
+            script[index].pop(key)
+        else:
+            script[index][key] = value
+    return script
+
+
+BAD_INPUT = {
+    "unknown command": (GOOD + [{"command": "explode"}], "command 7: unknown command \"explode\""),
+    "missing field": (replace(4, radius=None), "command 5 (create particle): field 'radius' is missing"),
+    "mistyped field": (replace(4, radius="big"), "command 5 (create particle): field 'radius' must be a number"),
+    "unknown material": (replace(4, type=3), "command 5 (create particle): field 'type' names unknown material type 3"),
+    "negative radius": (replace(4, radius=-0.01), "command 5 (create particle): field 'radius' must be > 0"),
+    "zero time step": (replace(5, value=0), "command 6 (set timestep): field 'value' must be > 0"),
+    "restitution above 1": (replace(2, restitution=1.5),
+                            "command 3 (create interaction): field 'restitution' must be in (0, 1]"),
+    "restitution zero": (replace(2, restitution=0), "command 3 (create interaction): field 'restitution' must be in"),
+    "poisson above 0.5": (replace(1, poisson_ratio=0.6),
+                          "command 2 (create material): field 'poisson_ratio' must be <= 0.5"),
+    "variable without value": (replace(4, radius="${R}"), "command 5 (create): variable '${R}' has no value"),
+    "unknown field": (replace(4, colour="red"), "command 5 (create particle): field 'colour' is not a field"),
+    "unknown model": (replace(3, normal="jkr"), "command 4 (create contact_model): field 'normal' must be one of"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_INPUT))
+def test_bad_input_is_one_line_with_exit_code_2(engine_run, capsys, case):
+    script, expected = BAD_INPUT[case]
+    code, folder = engine_run(script + [run(10)])
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("ERROR: scene.json: ") and expected in err[0], err
+    assert (folder / "log.dem").read_text().splitlines()[-1] == err[0]
+
+
+def test_outputs_before_a_bad_command_stay_valid(engine_run):
+    script = GOOD + [{"command": "set", "property": "thermo", "every": 10}, run(50),
+                     {"command": "create", "object": "particle", "type": 1, "radius": -1, "position": [0, 0, 0.5]}]
+    code, folder = engine_run(script)
+    assert code == 2
+    thermo = read_csv(folder / "thermo.csv")
+    assert list(thermo["step"]) == [0, 10, 20, 30, 40, 50]
+    timing = json.loads((folder / "timing.json").read_text())
+    assert timing["steps"] == 50 and timing["particles"] == 1
+
+
+def test_unreadable_and_invalid_scripts(engine_run, tmp_path, capsys):
+    from engine.__main__ import run as run_engine
+
+    os.chdir(tmp_path)
+    assert run_engine("missing.json", "log.dem", {}, echo=False) == 2
+    assert "ERROR: missing.json: cannot read input script" in capsys.readouterr().err
+    (tmp_path / "broken.json").write_text('[{"command": "create",]')
+    assert run_engine("broken.json", "log.dem", {}, echo=False) == 2
+    assert "ERROR: broken.json: not valid JSON" in capsys.readouterr().err
+
+
+def test_variables_fill_numbers_and_strings(engine_run):
+    script = replace(4, radius="${R}") + [
+        {"command": "create", "object": "modifier", "name": "p", "kind": "print", "every": 5,
+         "file": "out_${NAME}.csv", "quantities": ["x[1]"]}, {"command": "fix", "name": "p"}, run(5)]
+    code, folder = engine_run(script, variables={"R": "0.02", "NAME": "abc"})
+    assert code == 0
+    assert (folder / "out_abc.csv").exists()
+
+
+def test_program_runs_with_only_engine_on_the_path(tmp_path):
+    """Like the harness: engine/ exported alone into a build folder, run as `python -m engine` from a run folder."""
+    build = tmp_path / "build" / "src"
+    shutil.copytree(REPO / "engine", build / "engine", ignore=shutil.ignore_patterns("__pycache__"))
+    folder = tmp_path / "run"
+    folder.mkdir()
+    (folder / "scene.json").write_text(json.dumps(GOOD + [run(20)]))
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(build)
+    proc = subprocess.run([sys.executable, "-m", "engine", "-in", "scene.json", "-log", "log.txt"], cwd=folder,
+                          env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert (folder / "log.txt").exists() and (folder / "thermo.csv").exists()
+    assert read_csv(folder / "thermo.csv")["step"][-1] == 20
+    timing = json.loads((folder / "timing.json").read_text())
+    assert timing["steps"] == 20 and timing["comm"] == 0.0
+    # bad input through the real program: exit 2 and exactly one stderr line
+    proc = subprocess.run([sys.executable, "-m", "engine", "-in", "scene.json", "-var"], cwd=folder, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    assert proc.stderr.startswith("ERROR: bad command line argument")
