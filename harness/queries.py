@@ -58,8 +58,11 @@ def accepted_expression():
     unaccepted_bad = ConsistencyResult.objects.filter(run=OuterRef("pk")).exclude(
         level__in=CONSISTENT_LEVELS).exclude(Exists(quantity_override))
     all_bad_overruled = Q(consistency="inconsistent") & ~Exists(unaccepted_bad)
-    return models.Case(models.When(whole_run | all_bad_overruled, then=True), default=False,
-                       output_field=models.BooleanField())
+    overruled = models.Case(models.When(whole_run | all_bad_overruled, then=True), default=False,
+                            output_field=models.BooleanField())
+    # only failed or inconsistent runs can be accepted: the subqueries run for those alone (CASE is lazy)
+    return models.Case(models.When(Q(state="failed") | Q(consistency="inconsistent"), then=overruled),
+                       default=False, output_field=models.BooleanField())
 
 
 @dataclass
