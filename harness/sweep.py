@@ -3,7 +3,10 @@
 A run configuration declares a sweep block::
 
     "sweep": {"variable": "DT_FRACTION", "values": [0.4, 0.2, 0.1, 0.05],
+              "with": {"STEPS": [250, 500, 1000, 2000]},
               "error": {"quantity": "bounce.e", "at": "end", "exact": 0.9}}
+
+``with`` sets further variables that change together with the swept one (here: the same simulated time).
 
 Discovery expands it into one ordinary run per value, named ``NAME@VARIABLE=VALUE``, with the value passed as
 ``-var VARIABLE VALUE``, so the runs are executed, stored, post-processed and checked like any other. After they
@@ -49,6 +52,14 @@ def validate(entry: dict) -> list[str]:
         errors.append("sweep.values: every value must be a number > 0 (the plot is log-log)")
     elif len(set(values)) != len(values):
         errors.append("sweep.values: values must be distinct")
+    companions = sweep.get("with", {})
+    if not isinstance(companions, dict):
+        errors.append("sweep.with: must map variable names to lists of values, one per sweep value")
+    else:
+        for name, values in companions.items():
+            if not isinstance(values, list) or not isinstance(sweep.get("values"), list) \
+                    or len(values) != len(sweep["values"]):
+                errors.append(f"sweep.with.{name}: must be a list with one value per sweep value")
     error = sweep.get("error")
     if not isinstance(error, dict):
         errors.append("sweep.error: must be an object with quantity (SERIES.COLUMN) and optionally at, exact")
@@ -71,11 +82,14 @@ def expand(entry: dict) -> list[dict]:
     if not sweep:
         return [entry]
     points = []
-    for value in sweep["values"]:
+    for i, value in enumerate(sweep["values"]):
         point = copy.deepcopy(entry)
         del point["sweep"]
         point["name"] = point_name(entry["name"], sweep["variable"], value)
-        point.setdefault("variables", {})[sweep["variable"]] = value
+        variables = point.setdefault("variables", {})
+        variables[sweep["variable"]] = value
+        for name, values in sweep.get("with", {}).items():
+            variables[name] = values[i]
         point["sweep_point"] = {"sweep": entry["name"], "variable": sweep["variable"], "value": value,
                                 "spec": sweep}
         points.append(point)

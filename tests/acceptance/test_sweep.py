@@ -18,6 +18,9 @@ def test_expand_gives_one_run_per_value_with_the_variable_set():
     assert all(p["variables"]["E"] == 0.9 and "sweep" not in p for p in points)
     assert "sweep" in entry  # the original is untouched
     assert sw.expand({"name": "plain"}) == [{"name": "plain"}]
+    companions = sw.expand({"name": "b", "sweep": {**SWEEP, "with": {"STEPS": [10, 20, 40]}}})
+    assert [p["variables"]["STEPS"] for p in companions] == [10, 20, 40]
+    assert "sweep.with.STEPS" in sw.validate({"name": "b", "sweep": {**SWEEP, "with": {"STEPS": [1]}}})[0]
 
 
 def test_validate_reports_paths():
