@@ -23,6 +23,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 SCENE = REPO / "engine" / "examples" / "settling.json"
+RADIUS = 0.0015  # m, as in the scene
 LOOP = re.compile(r"Loop time of ([\d.e+-]+) s for (\d+) steps with (\d+) particles \(([\d.e+-]+) particle-steps/s\)")
 
 
@@ -50,8 +51,11 @@ def main():
           f"{'peak RSS (MB)':>14}")
     for n in args.sizes:
         half_width = 0.03 * math.sqrt(n / 10000)  # same bed height (about 6.5 cm) for every N
+        # pour from a random packing at volume fraction 0.28 of the space the centres can reach
+        usable = (2 * half_width - 2 * RADIUS) ** 2
+        height = n * 4 / 3 * math.pi * RADIUS ** 3 / (0.28 * usable) + 2 * RADIUS
         with tempfile.TemporaryDirectory() as tmp:
-            log, rss_kb = run_engine(Path(tmp), dict(N=n, SEED=1, HALF_WIDTH=half_width, HEIGHT=0.13,
+            log, rss_kb = run_engine(Path(tmp), dict(N=n, SEED=1, HALF_WIDTH=half_width, HEIGHT=height,
                                                      DUMP_EVERY=10 ** 9, SETTLE_STEPS=args.settle,
                                                      MEASURE_STEPS=args.measure))
             loops = LOOP.findall(log)

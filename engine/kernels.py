@@ -249,12 +249,11 @@ def generate_source(c: Combination) -> str:
         "    \"\"\"Fresh neighbor list and forces for the current state (start of a run after the scene changed).\"\"\"\n",
         "    box = hi - lo\n",
         "    " + rebuild_call.replace("\n            ", "\n        "),
-        "    if True:\n",
-        "        for i in range(x.shape[0]):\n", clear,
-        "            torque[i, 0] = 0.0\n            torque[i, 1] = 0.0\n            torque[i, 2] = 0.0\n",
-        "        pair_forces(x, v, omega, f, torque, radius, mass, ptype, nbr_start, nbr_j, pair_hist, pp, dt,\n"
-        "                    char_vel, box)\n",
-        walls,
+        "    for i in range(x.shape[0]):\n", clear.replace("\n        ", "\n    ")[4:],
+        "        torque[i, 0] = 0.0\n        torque[i, 1] = 0.0\n        torque[i, 2] = 0.0\n",
+        "    pair_forces(x, v, omega, f, torque, radius, mass, ptype, nbr_start, nbr_j, pair_hist, pp, dt,\n"
+        "                char_vel, box)\n",
+        walls.replace("\n    ", "\n")[4:] if walls else "",
         f"    return {state_out}\n\n\n",
         "@njit(cache=True, error_model=\"numpy\")\n",
         f"def run_steps({args}):\n",
