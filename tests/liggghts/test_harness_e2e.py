@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from harness.consistency import compare_runs, run_level
-from liggghts_support import LIGGGHTS, harness, needs_liggghts, needs_mpirun, records, series
+from liggghts_support import FREE_FALL, LIGGGHTS, harness, needs_liggghts, needs_mpirun, records, series
 
 TUTORIALS = Path("/usr/share/doc/liggghts/examples/LIGGGHTS/Tutorials_public")
 pytestmark = needs_liggghts
@@ -95,3 +95,32 @@ def test_tutorials_run_unchanged(tmp_path):
     assert runs["mesh_tet/mesh_tet"]["state"] == "post_processed"
     failed = runs["contactModels/oldModels"]
     assert failed["state"] == "failed" and "Invalid pair style" in failed["failure_message"]
+
+
+def test_thermo_columns_from_run_config(tmp_path):
+    """rke printed through an equal-style variable cannot be inferred; run.config's thermo_columns names it."""
+    # the variable's column is "spinning", not the compute's "spin": rke cannot be inferred
+    script = FREE_FALL.replace("thermo_style    custom step atoms ke c_spin\n",
+                               "variable        spinning equal c_spin\n"
+                               "thermo_style    custom step atoms ke v_spinning\n")
+    script = script.replace("thermo_style    custom step atoms ke c_spin cpu\n", "")
+    case = tmp_path / "cases" / "mapped"
+    case.mkdir(parents=True)
+    (case / "in.fall").write_text(script)
+    runs = [{"name": "mapped", "script": "in.fall", "thermo_columns": {"rke": "v_spinning"}},
+            {"name": "unmapped", "script": "in.fall"}]
+    (case / "run.config").write_text(json.dumps({"runs": runs}))
+    targets = tmp_path / "targets"
+    targets.mkdir()
+    (targets / "mapped.json").write_text(json.dumps({
+        "recipe": "system", "executable": LIGGGHTS, "engine": "liggghts", "testcases": [str(tmp_path / "cases")]}))
+    home = tmp_path / "home"
+    harness(home, "run", "mapped", targets=targets, check=False)
+    runs = {name.rsplit("/", 1)[-1]: r for name, r in records(home, "mapped").items()}
+    mapped, unmapped = runs["mapped"], runs["unmapped"]
+    assert mapped["state"] == "post_processed", mapped["failure_message"]
+    assert series(mapped, "thermo")["rke"] == [0.0] * 11
+    # without the mapping: a one-line error that says what to do
+    assert unmapped["state"] == "failed" and unmapped["failure_reason"] == "missing_output"
+    assert "no thermo column for 'rke'" in unmapped["failure_message"]
+    assert "thermo_columns" in unmapped["failure_message"] and "\n" not in unmapped["failure_message"]
