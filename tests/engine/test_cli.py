@@ -103,3 +103,26 @@ def test_program_runs_with_only_engine_on_the_path(tmp_path):
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
     assert proc.stderr.startswith("ERROR: bad command line argument")
+
+
+def test_second_run_loads_the_kernel_from_the_disk_cache(tmp_path):
+    """The generated kernel and its machine code land in $DEM_CACHE_DIR; a new process does not compile again."""
+    cache = tmp_path / "cache"
+    scene = [domain(), material(), interaction(), model("hooke", "none", characteristic_velocity=1.0),
+             particle([0, 0, 0]), timestep(1e-5), run(5)]
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(PYTHONPATH=str(REPO), DEM_CACHE_DIR=str(cache))
+    compile_seconds = []
+    for attempt in ("first", "second"):
+        folder = tmp_path / attempt
+        folder.mkdir()
+        (folder / "scene.json").write_text(json.dumps(scene))
+        proc = subprocess.run([sys.executable, "-m", "engine", "-in", "scene.json"], cwd=folder, env=env,
+                              capture_output=True, text=True, timeout=600)
+        assert proc.returncode == 0, proc.stderr
+        compile_seconds.append(json.loads((folder / "timing.json").read_text())["compile"])
+    kernels = list(cache.glob("dem_kernel_*.py"))
+    assert len(kernels) == 1 and "hooke_normal" in kernels[0].read_text()
+    assert "tangential" not in kernels[0].read_text().split('"""', 2)[2]  # only the named laws
+    assert list((cache / "__pycache__").glob(kernels[0].stem + "*.nbi"))
+    assert compile_seconds[1] < 0.25 * compile_seconds[0], compile_seconds
