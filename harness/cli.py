@@ -57,10 +57,23 @@ def main(argv: list[str] | None = None) -> int:
     pre.add_argument("--home")
     pre.add_argument("--targets")
     known, _ = pre.parse_known_args(args_list)
-    if known.home:
-        os.environ["HARNESS_HOME"] = os.path.abspath(os.path.expanduser(known.home))
-    if known.targets:
-        os.environ["HARNESS_TARGETS"] = os.path.abspath(os.path.expanduser(known.targets))
+    # main() also runs in-process (tests, scripts): put the environment back afterwards
+    saved = {name: os.environ.get(name) for name in ("HARNESS_HOME", "HARNESS_TARGETS")}
+    try:
+        if known.home:
+            os.environ["HARNESS_HOME"] = os.path.abspath(os.path.expanduser(known.home))
+        if known.targets:
+            os.environ["HARNESS_TARGETS"] = os.path.abspath(os.path.expanduser(known.targets))
+        return _dispatch(args_list)
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
+def _dispatch(args_list: list[str]) -> int:
     parser = build_parser()
     args = parser.parse_args(args_list)
     if not getattr(args, "_run", None):
