@@ -119,6 +119,8 @@ def _contact_block(c: Combination, wall: bool, indent: str) -> str:
         if not wall:
             lines += ["torque[j, 0] += rtx", "torque[j, 1] += rty", "torque[j, 2] += rtz"]
     lines += ["fix += fx", "fiy += fy", "fiz += fz"]
+    if wall:  # the wall takes the opposite force (a quantity users can print, e.g. the bottom load)
+        lines += ["wall_force[w, 0] -= fx", "wall_force[w, 1] -= fy", "wall_force[w, 2] -= fz"]
     if not wall:
         lines += ["f[j, 0] -= fx", "f[j, 1] -= fy", "f[j, 2] -= fz"]
     return "".join(indent + ln + "\n" for ln in lines)
@@ -182,8 +184,10 @@ def generate_source(c: Combination) -> str:
     if c.planes or c.cylinders:
         s = ["@njit(cache=True, error_model=\"numpy\")\n",
              "def wall_forces(x, v, omega, f, torque, radius, mass, ptype, wall_hist, pp, dt, char_vel,\n"
-             "                plane_axis, plane_pos, plane_vel, plane_type, cyl_center, cyl_radius, cyl_side, cyl_type):\n",
+             "                plane_axis, plane_pos, plane_vel, plane_type, cyl_center, cyl_radius, cyl_side, cyl_type,\n"
+             "                wall_force):\n",
              "    nplanes = plane_axis.shape[0]\n",
+             "    wall_force[:, :] = 0.0\n",
              "    for i in range(x.shape[0]):\n", _particle_head(" " * 8),
              "        reff = ri\n", "        meff = mi\n"]
         if c.planes:
@@ -227,14 +231,15 @@ def generate_source(c: Combination) -> str:
              "            f[i, 2] = mass[i] * gravity[2]\n") if c.gravity else \
         "            f[i, 0] = 0.0\n            f[i, 1] = 0.0\n            f[i, 2] = 0.0\n"
     walls = ("        wall_forces(x, v, omega, f, torque, radius, mass, ptype, wall_hist, pp, dt, char_vel,\n"
-             "                    plane_axis, plane_pos, plane_vel, plane_type, cyl_center, cyl_radius, cyl_side, cyl_type)\n"
+             "                    plane_axis, plane_pos, plane_vel, plane_type, cyl_center, cyl_radius, cyl_side, cyl_type,\n"
+             "                    wall_force)\n"
              ) if (c.planes or c.cylinders) else ""
     move_planes = ("        for w in range(plane_axis.shape[0]):\n"
                    "            plane_pos[w] += plane_vel[w, plane_axis[w]] * dt\n") if c.planes else ""
     args = ("x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, pid, x_build, nbr_start, nbr_j,\n"
             "              pair_hist, wall_hist, pp, dt, char_vel, gravity, lo, hi, periodic, skin, step0, nsteps,\n"
             "              timers, lost_ids, lost_steps, nlost, plane_axis, plane_pos, plane_vel, plane_type,\n"
-            "              cyl_center, cyl_radius, cyl_side, cyl_type")
+            "              cyl_center, cyl_radius, cyl_side, cyl_type, wall_force")
     state_out = ("x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, pid, x_build, nbr_start, "
                  "nbr_j, pair_hist, wall_hist")
     rebuild_call = ("(x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, pid, nbr_start, nbr_j,\n"
@@ -245,7 +250,8 @@ def generate_source(c: Combination) -> str:
         "@njit(cache=True, error_model=\"numpy\")\n",
         f"def setup(x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, pid, x_build, nbr_start, nbr_j,\n"
         "          pair_hist, wall_hist, pp, dt, char_vel, gravity, lo, hi, periodic, skin, step, lost_ids, lost_steps,\n"
-        "          nlost, plane_axis, plane_pos, plane_vel, plane_type, cyl_center, cyl_radius, cyl_side, cyl_type):\n",
+        "          nlost, plane_axis, plane_pos, plane_vel, plane_type, cyl_center, cyl_radius, cyl_side, cyl_type,\n"
+        "          wall_force):\n",
         "    \"\"\"Fresh neighbor list and forces for the current state (start of a run after the scene changed).\"\"\"\n",
         "    box = hi - lo\n",
         "    " + rebuild_call.replace("\n            ", "\n        "),

@@ -27,8 +27,10 @@ GLOBAL_QUANTITIES = ("step", "time", "atoms", "ke", "rke", "pe", "energy", "mome
                      "momentum_z", "com_x", "com_y", "com_z", "max_speed", "contacts", "max_overlap")
 PARTICLE_QUANTITIES = ("x", "y", "z", "vx", "vy", "vz", "fx", "fy", "fz", "omegax", "omegay", "omegaz")
 _PARTICLE_QUANTITY = re.compile(r"^(%s)\[(\d+)\]$" % "|".join(PARTICLE_QUANTITIES))
+#: force the particles exert on a wall (N) at the last step, e.g. wall_fz[floor]
+_WALL_QUANTITY = re.compile(r"^wall_f([xyz])\[([^\]]+)\]$")
 THERMO_FIRST = ["step", "time", "atoms", "ke", "rke"]
-RESTART_FORMAT = 1
+RESTART_FORMAT = 2
 #: overlaps above this fraction of the smaller radius are reported (issue 2)
 OVERLAP_WARN_RATIO = 0.1
 
@@ -58,7 +60,8 @@ class Log:
 
 
 def check_quantity(name: str) -> bool:
-    return name in GLOBAL_QUANTITIES or _PARTICLE_QUANTITY.match(name) is not None
+    return (name in GLOBAL_QUANTITIES or _PARTICLE_QUANTITY.match(name) is not None
+            or _WALL_QUANTITY.match(name) is not None)
 
 
 class Simulation:
@@ -77,6 +80,7 @@ class Simulation:
         self.model: dict | None = None
         self.walls: list[dict] = []
         self.plane_pos = np.zeros(0)
+        self.wall_force = np.zeros((0, 3))  # N, on each wall (planes, then cylinders) at the last step
         self.modifiers: dict[str, dict] = {}
         self.active: list[str] = []
         self.timestep_fraction = 0.2
@@ -386,6 +390,13 @@ class Simulation:
 
     # ------------------------------------------------------------------ quantities
     def quantity(self, name: str):
+        m = _WALL_QUANTITY.match(name)
+        if m:
+            names = [w["name"] for w in self.walls]
+            if m.group(2) not in names:
+                raise InputError(f"quantity '{name}' names no wall '{m.group(2)}' (walls: {', '.join(names)})")
+            k = names.index(m.group(2))
+            return float(self.wall_force[k, "xyz".index(m.group(1))]) if k < len(self.wall_force) else 0.0
         m = _PARTICLE_QUANTITY.match(name)
         if m:
             where = np.nonzero(self.pid == int(m.group(2)))[0]
@@ -574,7 +585,9 @@ class Simulation:
         self.check_timestep(fields.where)
         pp = parameter_table(self.materials, self.interactions, max(self.materials))
         gravity = self.gravity_vector()
-        walls = self._wall_arrays()
+        if self.wall_force.shape[0] != len(self.walls):
+            self.wall_force = np.zeros((len(self.walls), 3))
+        walls = self._wall_arrays() + (self.wall_force,)
         self.plane_pos = walls[1]
         common = (pp, self.dt, self.model["characteristic_velocity"], gravity, self.lo, self.hi, self.periodic,
                   self.skin)
@@ -698,7 +711,7 @@ class Simulation:
             np.savez(handle, format=RESTART_FORMAT, step=self.step, time=self.time,
                      dt=np.nan if self.dt is None else self.dt, skin=self.skin, lo=self.lo, hi=self.hi,
                      periodic=self.periodic, next_id=self.next_id, dirty=self.dirty,
-                     walls=json.dumps(self.walls), plane_pos=self.plane_pos,
+                     walls=json.dumps(self.walls), plane_pos=self.plane_pos, wall_force=self.wall_force,
                      **dict(zip(("x", "v", "f", "omega", "torque", "radius", "mass", "inv_mass", "inv_inertia",
                                  "ptype", "pid", "x_build", "nbr_start", "nbr_j", "pair_hist", "wall_hist"),
                                 self._state())))
@@ -729,6 +742,7 @@ class Simulation:
         self.next_id = int(data["next_id"])
         self.walls = json.loads(str(data["walls"]))
         self.plane_pos = data["plane_pos"].copy()
+        self.wall_force = data["wall_force"].copy()
         self._set_state(tuple(np.ascontiguousarray(data[k]) for k in (
             "x", "v", "f", "omega", "torque", "radius", "mass", "inv_mass", "inv_inertia", "ptype", "pid",
             "x_build", "nbr_start", "nbr_j", "pair_hist", "wall_hist")))

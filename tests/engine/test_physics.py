@@ -194,3 +194,14 @@ def test_moving_plane_lifts_resting_sphere(engine_run):
     assert s["vz[1]"][-1] == pytest.approx(lift, rel=0.02)
     # resting on the plane (at z = lift t) with its static overlap m g / kn
     assert s["z[1]"][-1] == pytest.approx(lift * 0.2 + R, abs=0.02 * R)
+
+
+def test_wall_force_of_a_resting_sphere_is_its_weight(engine_run):
+    scene = hertz_scene([plane("side", "x", 0.5), particle([0, 0, R]), timestep(1e-5),
+                         {"command": "set", "property": "thermo", "every": 1000,
+                          "columns": ["wall_fz[floor]", "wall_fx[side]"]}, run(10000)])
+    code, folder = engine_run(scene)
+    assert code == 0
+    th = read_csv(folder / "thermo.csv")
+    assert th["wall_fz[floor]"][-1] == pytest.approx(-MASS * 9.81, rel=1e-3)  # pressed down by its weight
+    assert np.all(th["wall_fx[side]"] == 0.0)
