@@ -523,6 +523,13 @@ class Simulation:
                 if a <= b and (a, b) not in self.interactions:
                     raise fields.error("steps", f"cannot run: no interaction for material types {a} and {b} "
                                        "(create an interaction)")
+        names = {w["name"] for w in self.walls}
+        requested = list(self.thermo_columns) + [q for n in self.active for q in self.modifiers[n].get("quantities", [])]
+        for q in requested:
+            m = _WALL_QUANTITY.match(q)
+            if m and m.group(2) not in names:
+                raise fields.error("steps", f"cannot run: quantity '{q}' names no wall '{m.group(2)}' "
+                                   f"(walls: {', '.join(sorted(names)) or 'none'})")
         if len(self.pid):
             cutoff = 2 * float(self.radius.max()) + self.skin
             for a in range(3):

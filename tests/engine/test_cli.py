@@ -38,6 +38,8 @@ BAD_INPUT = {
     "variable without value": (replace(4, radius="${R}"), "command 5 (create): variable '${R}' has no value"),
     "unknown field": (replace(4, colour="red"), "command 5 (create particle): field 'colour' is not a field"),
     "unknown model": (replace(3, normal="jkr"), "command 4 (create contact_model): field 'normal' must be one of"),
+    "unknown wall in thermo": (GOOD + [{"command": "set", "property": "thermo", "columns": ["wall_fz[floor]"]}],
+                               "command 8 (run): field 'steps' cannot run: quantity 'wall_fz[floor]' names no wall"),
 }
 
 
