@@ -230,3 +230,24 @@ def sweeps_in_store(runs) -> list[SweepResult]:
             points.append(SweepPoint(float(run.config["sweep_point"]["value"]), run.wall_time, quantity, run.state))
         results.append(SweepResult(testcase, name, spec, sweep_table(spec, points)))
     return results
+
+
+def current_sweeps() -> list[tuple[object, SweepResult]]:
+    """The sweeps of the newest complete build of every target on every machine, as (build, sweep) pairs."""
+    from harness.models import Build, Run
+
+    latest = {}
+    for build in (Build.objects.filter(status=Build.Status.COMPLETE, runs__config__has_key="sweep_point")
+                  .select_related("target", "machine").order_by("finished", "id").distinct()):
+        latest[(build.machine_id, build.target_id)] = build
+    found = []
+    for build in sorted(latest.values(), key=lambda b: (b.machine.name, b.target.name)):
+        found += [(build, result) for result in sweeps_in_store(Run.objects.filter(build=build))]
+    return found
+
+
+def find_sweep(build, testcase: str, name: str) -> SweepResult | None:
+    from harness.models import Run
+
+    runs = Run.objects.filter(build=build, testcase__path=testcase)
+    return next((r for r in sweeps_in_store(runs) if r.name == name), None)

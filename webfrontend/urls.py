@@ -18,6 +18,8 @@ urlpatterns = [
     path("compare/plot.png", views.compare_plot, name="compare-plot"),
     path("history/<int:target_id>/<path:testcase>/plot.png", views.history_plot, name="history-plot"),
     path("history/<int:target_id>/<path:testcase>/", views.history, name="history"),
+    path("sweeps/", views.sweeps, name="sweeps"),
+    path("sweeps/<int:build_id>/<path:testcase>/<str:name>.png", views.sweep_plot, name="sweep-plot"),
     path("junit.xml", views.junit, name="junit"),
     path("accounts/", include("django.contrib.auth.urls")),
     path("admin/", admin.site.urls),

@@ -184,6 +184,29 @@ def history_plot(request, target_id, testcase):
     return _png(plots.history_figure(runs, case.path, target.name))
 
 
+def sweeps(request):
+    from harness.sweep import current_sweeps
+
+    return render(request, "webfrontend/sweeps.html", {"sweeps": current_sweeps()})
+
+
+def sweep_plot(request, build_id, testcase, name):
+    from io import BytesIO
+
+    from harness.models import Build
+    from harness.sweep import find_sweep, plot
+
+    build = get_object_or_404(Build.objects.select_related("target"), pk=build_id)
+    result = find_sweep(build, testcase.strip("/"), name)
+    if result is None:
+        raise Http404("no such sweep")
+    out = BytesIO()
+    plot(result.table, result.spec, f"{build.target.name}: {result.testcase}/{result.name}", out)
+    response = HttpResponse(out.getvalue(), content_type="image/png")
+    response["Cache-Control"] = "max-age=60"
+    return response
+
+
 def junit(request):
     runs = Run.objects.junit(*(request.GET.get(k) if (request.GET.get(k) or "").isdigit() else None
                                for k in ("machine", "target")))
