@@ -96,7 +96,7 @@ class Simulation:
         self.dirty = True
         self.lost_total = 0
         self.timing = dict(pair=0.0, neigh=0.0, comm=0.0, modify=0.0, output=0.0, other=0.0, total=0.0,
-                           compile=0.0, steps=0, particles=0, particle_steps=0)
+                           cpu=0.0, compile=0.0, steps=0, particles=0, particle_steps=0)
         n = 0
         self.x = np.zeros((n, 3))
         self.v = np.zeros((n, 3))
@@ -610,6 +610,7 @@ class Simulation:
                          np.zeros(1, np.int64), np.zeros(1, np.int64), *walls)
         self.timing["compile"] += time.perf_counter() - t0  # first call of a kernel compiles or loads it
         start_wall = time.perf_counter()
+        start_cpu = time.process_time()  # CPU seconds too: on a shared machine wall time overstates the cost
         start_step, start_time = self.step, self.time
         timers = np.zeros(3)
         particle_steps = 0
@@ -645,11 +646,13 @@ class Simulation:
                                  f"{OVERLAP_WARN_RATIO:.0%} of the smaller radius (max {worst:.1%})")
             self._outputs(start=False)
         total = time.perf_counter() - start_wall
+        cpu = time.process_time() - start_cpu
         t = self.timing
         t["neigh"] += timers[0]
         t["pair"] += timers[1]
         t["modify"] += timers[2]
         t["total"] += total
+        t["cpu"] += cpu
         t["steps"] += steps
         t["particles"] = len(self.pid)
         t["particle_steps"] += particle_steps
@@ -657,7 +660,8 @@ class Simulation:
         self.log.info(f"Loop time of {total:.6g} s for {steps} steps with {len(self.pid)} particles "
                       f"({rate:.4g} particle-steps/s); pair {timers[1]:.4g} s, neigh {timers[0]:.4g} s "
                       f"({rebuilds} rebuilds), modify {timers[2]:.4g} s; max overlap {max_overlap:.2%} of radius; "
-                      f"particles lost so far {self.lost_total}")
+                      f"particles lost so far {self.lost_total}; cpu {cpu:.6g} s "
+                      f"({particle_steps / cpu if cpu > 0 else 0.0:.4g} particle-steps per cpu second)")
 
     def _check_finite(self, where):
         for label, array in (("velocity", self.v), ("force", self.f), ("angular velocity", self.omega),
