@@ -89,7 +89,8 @@ def two_in_contact(tangential, rolling="none"):
             particle([0, 0, 0], velocity=[0, 0.1, 0]), particle([0.0199, 0, 0]), timestep(1e-5), run(10)]
 
 
-def test_no_history_allocated_without_a_history_submodel():
+def test_no_history_allocated_without_a_history_submodel(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the runs write thermo.csv
     sim = make_sim(two_in_contact("no_history"))
     assert sim.overlaps()[0] == 1  # the pair is in contact ...
     assert sim.pair_hist.nbytes == 0 and sim.wall_hist.nbytes == 0  # ... and stores nothing
