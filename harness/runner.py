@@ -346,11 +346,23 @@ def run_targets(targets: list[TargetDefinition], options: RunOptions, out=None) 
     return report
 
 
+def cost_per_particle_step(timing: dict) -> float | None:
+    """Microseconds of time stepping per particle-step (CPU time where the engine reports it), or None.
+
+    This is the figure that shows what each effect of a scene costs (testcases/effects/).
+    """
+    steps = (timing or {}).get("particle_steps")
+    seconds = (timing or {}).get("cpu") or (timing or {}).get("total")
+    return 1e6 * seconds / steps if steps and seconds else None
+
+
 def summary_table(records: list[dict]) -> str:
-    rows = [("target", "test case", "run", "state", "reason", "wall s")]
+    rows = [("target", "test case", "run", "state", "reason", "wall s", "us/particle-step")]
     for r in sorted(records, key=lambda r: (r["target"], r["testcase"], r["run"])):
+        cost = cost_per_particle_step(r.get("timing"))
         rows.append((r["target"], r["testcase"], r["run"], r["state"], r["failure_reason"] or "",
-                     f"{r['wall_time']:.2f}" if r.get("wall_time") is not None else "-"))
+                     f"{r['wall_time']:.2f}" if r.get("wall_time") is not None else "-",
+                     f"{cost:.3f}" if cost is not None else "-"))
     return format_table(rows)
 
 

@@ -10,7 +10,7 @@ A run configuration declares a sweep block::
 
 Discovery expands it into one ordinary run per value, named ``NAME@VARIABLE=VALUE``, with the value passed as
 ``-var VARIABLE VALUE``, so the runs are executed, stored, post-processed and checked like any other. After they
-ran, :func:`sweep_table` turns them into a table of (value, wall time, quantity, error) and
+ran, :func:`sweep_table` turns them into a table of (value, run time, quantity, error) and
 :func:`observed_order` fits the convergence order: the slope of log(error) against log(value). Velocity-Verlet
 should show about 2 when the swept variable is the time step.
 
@@ -98,7 +98,8 @@ def expand(entry: dict) -> list[dict]:
 
 @dataclass
 class SweepPoint:
-    """One executed point: the swept value, the engine's wall time (s) and the measured quantity."""
+    """One executed point: the swept value, the run time (s; the engine's loop CPU or wall time where it reports
+    one, else the process wall time) and the measured quantity."""
 
     value: float
     wall_time: float | None
@@ -145,7 +146,7 @@ def observed_order(x, error) -> float | None:
 
 
 def plot(table: pd.DataFrame, sweep: dict, title: str, path) -> None:
-    """Log-log plots side by side: error against wall time (the cost of accuracy) and error against the value."""
+    """Log-log plots side by side: error against run time (the cost of accuracy) and error against the value."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -160,7 +161,7 @@ def plot(table: pd.DataFrame, sweep: dict, title: str, path) -> None:
     for _, row in valid.iterrows():
         cost.annotate(f"{variable}={row['value']:g}", (row["wall_time"], row["error"]), fontsize=8,
                       textcoords="offset points", xytext=(4, 4))
-    cost.set_xlabel("wall time of the run [s]")
+    cost.set_xlabel("run time [s] (engine time stepping)")
     cost.set_ylabel(f"error of {quantity}")
     cost.set_title("What accuracy costs in time")
     cost.grid(True, which="both", alpha=0.3)
@@ -185,10 +186,29 @@ def plot(table: pd.DataFrame, sweep: dict, title: str, path) -> None:
 
 # ------------------------------------------------------------------------------------------ from the store
 
+def _textfile_table(words: list[str]) -> pd.DataFrame | None:
+    """A text file stored as words read back as a table: header words, then rows of numbers (else None)."""
+    from harness.postprocess import is_number
+
+    width = next((i for i, word in enumerate(words) if is_number(word)), len(words))
+    values = words[width:]
+    if width == 0 or not values or len(values) % width or not all(is_number(v) for v in values):
+        return None
+    return pd.DataFrame(np.array(values, dtype=float).reshape(-1, width), columns=words[:width])
+
+
 def series_frames(run) -> dict[str, pd.DataFrame]:
-    """A stored run's post-processed series as DataFrames keyed by name, abscissa column first."""
+    """A stored run's post-processed series as DataFrames keyed by name, abscissa column first.
+
+    A text file with a numeric table (``restitution.txt``: ``e`` then ``0.9``) is also keyed by its stem.
+    """
     frames = {}
     for series in run.series.all():
+        if series.kind == "textfile":
+            table = _textfile_table(series.columns.get("words", []))
+            if table is not None:
+                frames[series.name.rsplit(".", 1)[0]] = table
+            continue
         frame = pd.DataFrame(series.columns)
         if series.x_column in frame.columns:
             frame = frame[[series.x_column] + [c for c in frame.columns if c != series.x_column]]
@@ -227,7 +247,11 @@ def sweeps_in_store(runs) -> list[SweepResult]:
         for run in members:
             ok = run.state in ("post_processed", "consistency_checked", "executed")
             quantity = measure(spec["error"], series_frames(run)) if ok else None
-            points.append(SweepPoint(float(run.config["sweep_point"]["value"]), run.wall_time, quantity, run.state))
+            # the engine's own loop time, in CPU seconds where it reports them (runs share the cores): process
+            # start-up and kernel compilation are no cost of accuracy
+            timing = run.timing or {}
+            run_time = timing.get("cpu") or timing.get("total") or run.wall_time
+            points.append(SweepPoint(float(run.config["sweep_point"]["value"]), run_time, quantity, run.state))
         results.append(SweepResult(testcase, name, spec, sweep_table(spec, points)))
     return results
 

@@ -21,15 +21,16 @@ def configure(parser):
 
 
 def run(args) -> int:
+    from harness.store import setup_store
+
+    setup_store()
     from harness import sweep as sw
     from harness.builds import current_build
     from harness.models import Run
     from harness.paths import harness_home
     from harness.runner import RunOptions, format_table, run_targets
-    from harness.store import setup_store
     from harness.targets import select_targets
 
-    setup_store()
     targets, problems = select_targets(args.targets)
     for problem in problems:
         print(f"harness: {problem}", file=sys.stderr)
@@ -58,14 +59,18 @@ def run(args) -> int:
             order = result.order
             print(f"\n{title}  (error of {result.spec['error']['quantity']}, observed order "
                   f"{'n/a' if order is None else f'{order:.2f}'})")
-            rows = [(result.spec["variable"], "wall s", "quantity", "error", "state")]
+            rows = [(result.spec["variable"], "run s", "quantity", "error", "state")]
             for _, row in result.table.iterrows():
-                rows.append((f"{row['value']:g}", "-" if row["wall_time"] != row["wall_time"] or row["wall_time"] is None
-                             else f"{row['wall_time']:.3f}", f"{row['quantity']:.6g}", f"{row['error']:.3g}",
-                             row["state"]))
+                rows.append((f"{row['value']:g}", _number(row["wall_time"], ".3f"), _number(row["quantity"], ".6g"),
+                             _number(row["error"], ".3g"), row["state"]))
             print(format_table(rows))
             print(f"table: {out / (result.name + '.csv')}\nplot:  {out / (result.name + '.png')}")
     if not found:
         print("harness: no sweep runs found (declare a 'sweep' block in a run.config)", file=sys.stderr)
         return 1
     return 1 if failed_runs or problems else 0
+
+
+def _number(value, spec: str) -> str:
+    """A table cell: '-' for a missing value (a run that failed, the finest run's own error)."""
+    return "-" if value is None or value != value else format(value, spec)
