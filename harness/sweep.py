@@ -102,7 +102,7 @@ class SweepPoint:
     one, else the process wall time) and the measured quantity."""
 
     value: float
-    wall_time: float | None
+    run_time: float | None
     quantity: float | None
     state: str = ""
 
@@ -117,7 +117,7 @@ def measure(error_spec: dict, data: dict) -> float | None:
 
 
 def sweep_table(sweep: dict, points: list[SweepPoint]) -> pd.DataFrame:
-    """Table of value, wall_time, quantity and error, sorted from coarse to fine."""
+    """Table of value, run_time, quantity and error, sorted from coarse to fine."""
     finest_is_max = sweep.get("finest", "min") == "max"
     table = pd.DataFrame([p.__dict__ for p in points]).sort_values("value", ascending=finest_is_max)
     table = table.reset_index(drop=True)
@@ -154,12 +154,12 @@ def plot(table: pd.DataFrame, sweep: dict, title: str, path) -> None:
 
     variable = sweep["variable"]
     quantity = sweep["error"]["quantity"]
-    valid = table.dropna(subset=["error", "wall_time"])
+    valid = table.dropna(subset=["error", "run_time"])
     valid = valid[valid["error"] > 0]
     fig, (cost, conv) = plt.subplots(1, 2, figsize=(11, 4.2))
-    cost.loglog(valid["wall_time"], valid["error"], "o-", color="tab:blue")
+    cost.loglog(valid["run_time"], valid["error"], "o-", color="tab:blue")
     for _, row in valid.iterrows():
-        cost.annotate(f"{variable}={row['value']:g}", (row["wall_time"], row["error"]), fontsize=8,
+        cost.annotate(f"{variable}={row['value']:g}", (row["run_time"], row["error"]), fontsize=8,
                       textcoords="offset points", xytext=(4, 4))
     cost.set_xlabel("run time [s] (engine time stepping)")
     cost.set_ylabel(f"error of {quantity}")

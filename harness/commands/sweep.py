@@ -61,7 +61,7 @@ def run(args) -> int:
                   f"{'n/a' if order is None else f'{order:.2f}'})")
             rows = [(result.spec["variable"], "run s", "quantity", "error", "state")]
             for _, row in result.table.iterrows():
-                rows.append((f"{row['value']:g}", _number(row["wall_time"], ".3f"), _number(row["quantity"], ".6g"),
+                rows.append((f"{row['value']:g}", _number(row["run_time"], ".3f"), _number(row["quantity"], ".6g"),
                              _number(row["error"], ".3g"), row["state"]))
             print(format_table(rows))
             print(f"table: {out / (result.name + '.csv')}\nplot:  {out / (result.name + '.png')}")
