@@ -17,7 +17,7 @@ from harness.consistency import compare_runs
 from harness.postprocess import read_vtk_points
 from liggghts_support import harness, needs_liggghts, records, series
 
-pytestmark = needs_liggghts
+pytestmark = [needs_liggghts, pytest.mark.liggghts]
 
 
 @pytest.fixture(scope="module")

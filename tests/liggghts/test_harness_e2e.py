@@ -12,7 +12,7 @@ from harness.consistency import compare_runs, run_level
 from liggghts_support import FREE_FALL, LIGGGHTS, harness, needs_liggghts, needs_mpirun, records, series
 
 TUTORIALS = Path("/usr/share/doc/liggghts/examples/LIGGGHTS/Tutorials_public")
-pytestmark = needs_liggghts
+pytestmark = [needs_liggghts, pytest.mark.liggghts]
 
 
 @pytest.fixture(scope="module")

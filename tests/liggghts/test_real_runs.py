@@ -17,7 +17,7 @@ DT = 1e-5  # s
 SPHERE_MASS = 2500 * 4 / 3 * math.pi * 0.0015 ** 3  # kg, radius 1.5 mm, density 2500 kg/m^3
 
 adapter = LiggghtsAdapter()
-pytestmark = needs_liggghts
+pytestmark = [needs_liggghts, pytest.mark.liggghts]
 
 
 def read_legacy_vtk(path):
