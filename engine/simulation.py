@@ -351,7 +351,19 @@ class Simulation:
         prop = fields.string("property", required=True,
                              choices=("timestep", "skin", "thermo", "timestep_check", "restart", "velocity"))
         if prop == "timestep":
-            self.dt = fields.number("value", required=True, positive=True)
+            value = fields.number("value", positive=True)
+            fraction = fields.number("fraction_of_critical", positive=True)
+            if (value is None) == (fraction is None):
+                raise fields.error("value", "give either 'value' (s) or 'fraction_of_critical' (of min(t_R, t_H))")
+            if fraction is not None:
+                # a time step as a fraction of the critical one, as sweeps over accuracy ask for it
+                t_c = min(self.critical_timestep())
+                if not math.isfinite(t_c):
+                    raise fields.error("fraction_of_critical", "needs particles to estimate the critical time step "
+                                       "(create them first)")
+                value = fraction * t_c
+                self.log.info(f"time step {value!r} s = {fraction:g} x critical time step {t_c:.6g} s")
+            self.dt = value
         elif prop == "skin":
             self.skin = fields.number("value", required=True, positive=True)
         elif prop == "thermo":

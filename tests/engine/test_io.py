@@ -162,3 +162,20 @@ def test_get_critical_timestep_matches_formulas(engine_run):
     m = 2500 * 4 / 3 * math.pi * 1e-6
     ystar = 1 / (2 * 0.91 / 1e7)
     assert t_h == pytest.approx(2.87 * (m * m / (0.005 * ystar ** 2 * 2.0)) ** 0.2)
+
+
+def test_timestep_as_fraction_of_the_critical_one(engine_run):
+    scene = [domain(), material(y=1e7, nu=0.3, rho=2500), interaction(), model("hertz", "none"),
+             particle([0, 0, 0]), {"command": "set", "property": "timestep", "fraction_of_critical": 0.1},
+             {"command": "set", "property": "thermo", "every": 1}, run(2)]
+    code, folder = engine_run(scene)
+    assert code == 0
+    t_r = math.pi * 0.01 * math.sqrt(2500 / (1e7 / 2.6)) / (0.1631 * 0.3 + 0.8766)  # at rest: t_H infinite
+    assert read_csv(folder / "thermo.csv")["time"][-1] == pytest.approx(2 * 0.1 * t_r, rel=1e-12)
+    both = scene[:5] + [{"command": "set", "property": "timestep", "value": 1e-5, "fraction_of_critical": 0.1}]
+    code, folder = engine_run(both, sub="both")
+    assert code == 2 and "give either 'value' (s) or 'fraction_of_critical'" in (folder / "log.dem").read_text()
+    early = [domain(), material(), interaction(), model("hertz", "none"),
+             {"command": "set", "property": "timestep", "fraction_of_critical": 0.1}]
+    code, folder = engine_run(early, sub="early")
+    assert code == 2 and "needs particles" in (folder / "log.dem").read_text()
