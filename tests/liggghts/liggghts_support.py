@@ -31,7 +31,8 @@ def run_liggghts(folder: Path, script: str, variables: dict | None = None, nproc
     mpi = ["mpirun", "-np", str(nprocs)] if nprocs > 1 else None
     cmd = adapter.command([LIGGGHTS], script, variables or {}, adapter.log_file(), mpi)
     (folder / "post").mkdir(exist_ok=True)
-    result = subprocess.run(cmd, cwd=folder, capture_output=True, text=True, timeout=timeout)
+    # errors="replace": after an ERROR, LIGGGHTS 3.8 sometimes prints a line of stray bytes on the screen
+    result = subprocess.run(cmd, cwd=folder, capture_output=True, text=True, errors="replace", timeout=timeout)
     (folder / "stdout.txt").write_text(result.stdout)
     (folder / "stderr.txt").write_text(result.stderr)
     return result
@@ -88,7 +89,8 @@ def harness(home: Path, *args: str, targets: Path | None = None, check: bool = T
     cmd = [sys.executable, "-m", "harness.cli", "--machine", "testbox", "--home", str(home)]
     if targets is not None:
         cmd += ["--targets", str(targets)]
-    result = subprocess.run(cmd + list(args), cwd=PROJECT, capture_output=True, text=True, timeout=300)
+    result = subprocess.run(cmd + list(args), cwd=PROJECT, capture_output=True, text=True, errors="replace",
+                            timeout=300)
     if check:
         assert result.returncode == 0, result.stdout + result.stderr
     return result

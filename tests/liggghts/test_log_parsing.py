@@ -131,6 +131,14 @@ def test_error_of_other_rank_found_on_screen(crafted):
     assert len(scan.errors) == 2  # rank 0's error in log and on screen counts once
 
 
+def test_stray_bytes_on_screen(crafted):
+    # seen from LIGGGHTS 3.8.0: after an ERROR the screen sometimes gets a line of uninitialised bytes
+    (crafted / "stdout.txt").write_bytes(b"ERROR: Unknown command: frobnicate all (./src/input.cpp:259)\n"
+                                         b"\x19\xb7\x19_\x05 (./src/input.cpp:259)\n")
+    scan = adapter.scan_log(crafted)
+    assert scan.errors[-1] == "ERROR: Unknown command: frobnicate all (./src/input.cpp:259)"
+
+
 def test_missing_log(tmp_path):
     assert adapter.scan_log(tmp_path).errors[0].startswith(f"{LOG_NAME} missing")
     with pytest.raises(UserError, match=LOG_NAME):
