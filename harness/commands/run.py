@@ -5,16 +5,21 @@ NAME = "run"
 HELP = "build targets if needed and run their test cases"
 
 
-def configure(parser):
+def add_selection(parser, what: str = "runs"):
+    """The options that choose what to run, shared with ``harness sweep``."""
     parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names (default: all)")
     parser.add_argument("-k", dest="pattern", metavar="PATTERN",
-                        help="only runs whose 'testcase/run' contains PATTERN (or matches it as a glob)")
+                        help=f"only {what} whose 'testcase/run' contains PATTERN (or matches it as a glob)")
     parser.add_argument("-j", dest="jobs", type=int, default=1, metavar="N", help="runs in parallel (default 1)")
+    parser.add_argument("--working-tree", action="store_true",
+                        help="take test cases from the working tree instead of testcases_revision")
+
+
+def configure(parser):
+    add_selection(parser)
     parser.add_argument("--rerun-failed", action="store_true", help="run failed runs again")
     parser.add_argument("--all", dest="rerun_all", action="store_true",
                         help="run everything again, also runs that already succeeded with this build")
-    parser.add_argument("--working-tree", action="store_true",
-                        help="take test cases from the working tree instead of testcases_revision")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="submit runs to an existing Dask distributed scheduler (tcp://host:8786); "
                              "run folders must be on a file system the workers share")

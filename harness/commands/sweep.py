@@ -11,13 +11,10 @@ HELP = "run sweeps (error against run time over a grid of a variable) and plot t
 
 
 def configure(parser):
-    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names (default: all)")
-    parser.add_argument("-k", dest="pattern", metavar="PATTERN",
-                        help="only sweeps whose 'testcase/run' contains PATTERN")
-    parser.add_argument("-j", dest="jobs", type=int, default=1, metavar="N", help="runs in parallel (default 1)")
+    from harness.commands.run import add_selection
+
+    add_selection(parser, what="sweeps")
     parser.add_argument("--no-run", action="store_true", help="only tabulate and plot runs already in the store")
-    parser.add_argument("--working-tree", action="store_true",
-                        help="take test cases from the working tree instead of testcases_revision")
 
 
 def run(args) -> int:
@@ -30,6 +27,7 @@ def run(args) -> int:
     from harness.paths import harness_home
     from harness.runner import RunOptions, format_table, run_targets
     from harness.targets import select_targets
+    from harness.testcases import matches
 
     targets, problems = select_targets(args.targets)
     for problem in problems:
@@ -48,7 +46,7 @@ def run(args) -> int:
             continue
         runs = Run.objects.filter(build=build, machine__name=args.machine)
         for result in sw.sweeps_in_store(runs):
-            if args.pattern and args.pattern not in f"{result.testcase}/{result.name}":
+            if not matches(args.pattern, result.testcase, result.name):
                 continue
             found += 1
             out = harness_home() / "sweeps" / args.machine / target.name / result.testcase
