@@ -144,6 +144,8 @@ def read_vtk_points(path: Path) -> dict[str, np.ndarray]:
     import vtk
     from vtk.util.numpy_support import vtk_to_numpy
 
+    # LIGGGHTS writes dumps before particles are inserted: an empty file is data (0 particles), not a warning
+    vtk.vtkObject.GlobalWarningDisplayOff()
     if path.suffix == ".vtp":
         reader = vtk.vtkXMLPolyDataReader()
     elif path.suffix == ".vtu":
