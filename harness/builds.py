@@ -1,9 +1,10 @@
 """Building targets (thesis 4.2): resolve the revision, export the source, run the recipe, cache the result.
 
-Builds are cached in ``builds_dir()/<target>/<commit>-<definition hash>/`` and count only once the recipe
-finished and the ``done`` marker is written (a crash mid-build leaves no half build that looks usable). The
-build log is kept as ``build.log`` and in the store. When a target's binary changes, its earlier results
-become outdated (thesis 4.3.4).
+Builds are cached in ``<workspace>/builds/<target>/<commit>-<definition hash>/`` and count only once the
+recipe finished and the ``done`` marker is written (a crash mid-build leaves no half build that looks
+usable). The build log is kept as ``build.log`` and in the store. The current build of a target is the one
+of the commit its revision resolves to now (``current_build``); the results of its other builds are
+outdated (thesis 4.3.4) but kept, with their run folders.
 """
 from __future__ import annotations
 
@@ -16,10 +17,12 @@ import sys
 from datetime import datetime, timezone
 from pathlib import Path
 
+from filelock import Timeout
+
 from harness import gitrepo
 from harness.adapters.base import UserError
-from harness.paths import builds_dir
 from harness.targets import TargetDefinition
+from harness.workspace import workspace
 
 DONE_MARKER = "done"
 
@@ -75,18 +78,63 @@ def resolve_commit(target: TargetDefinition) -> dict:
     return gitrepo.commit_info(gitrepo.resolve(repo, target.revision))
 
 
-def current_build(target_name: str, machine_name: str):
-    """The newest complete build of a target on a machine, or None."""
+def make_current(build) -> None:
+    """Record ``build`` as the current build of its target on its machine (thesis 4.3.4).
+
+    The runs of every other build of that target and machine become outdated; runs of this build that an
+    earlier switch made outdated come back (a revision built again is current again, its results valid),
+    except those a newer run of the same test case content replaced (``harness.records.store_record``).
+    """
+    from django.db import transaction
+
+    from harness.models import Build, Run
+    from harness.rules import restored_state
+
+    with transaction.atomic():
+        siblings = Build.objects.filter(target_id=build.target_id, machine_id=build.machine_id)
+        siblings.exclude(pk=build.pk).filter(current=True).update(current=False)
+        if not build.current:
+            Build.objects.filter(pk=build.pk).update(current=True)
+            build.current = True
+        (Run.objects.filter(target_id=build.target_id, machine_id=build.machine_id)
+         .exclude(build=build).exclude(state=Run.State.OUTDATED).update(state=Run.State.OUTDATED))
+        for run in Run.objects.filter(build=build, state=Run.State.OUTDATED, replaced=False):
+            run.state = restored_state(run)
+            run.save(update_fields=["state", "updated"])
+
+
+def find_build(target: TargetDefinition, machine_name: str, info: dict | None = None):
+    """The complete build of the commit ``target``'s revision resolves to now, or None."""
     from harness.models import Build
 
-    return (Build.objects.filter(target__name=target_name, machine__name=machine_name,
-                                 status=Build.Status.COMPLETE).order_by("-finished", "-id").first())
+    info = info or resolve_commit(target)
+    return Build.objects.filter(target__name=target.name, machine__name=machine_name, commit=info["commit"],
+                                definition_hash=target.definition_hash, status=Build.Status.COMPLETE).first()
+
+
+def current_build(target, machine_name: str):
+    """The current build of a target on a machine, or None when that commit is not built here.
+
+    With a definition (``TargetDefinition``) the revision is resolved now and the result recorded with
+    ``make_current``; with only a name (store-only targets, the dashboard) the recorded current build.
+    ``build``, ``run``, ``check``, ``status``, ``sweep``, ``list`` and the dashboard all ask this.
+    """
+    from harness.models import Build
+
+    if isinstance(target, TargetDefinition):
+        build = find_build(target, machine_name)
+        if build is not None:
+            make_current(build)
+        return build
+    return Build.objects.filter(target__name=target, machine__name=machine_name, current=True,
+                                status=Build.Status.COMPLETE).first()
 
 
 def build_target(target: TargetDefinition, machine_name: str, force: bool = False, log=None):
-    """Build ``target`` at its revision on this machine, or return the cached build.
+    """Build ``target`` at its revision on this machine, or return the cached build; it becomes current.
 
-    ``log`` is a callable taking a line of progress text (default: nothing).
+    ``log`` is a callable taking a line of progress text (default: nothing). Two processes building the
+    same target and commit wait for each other (a lock per build folder) and build it once.
     Raises BuildError when the recipe fails (the Build row is kept with status failed and the log).
     """
     from harness.models import Build, Run
@@ -95,16 +143,35 @@ def build_target(target: TargetDefinition, machine_name: str, force: bool = Fals
     machine = ensure_machine(machine_name)
     target_row = ensure_target(target)
     info = resolve_commit(target)
-    key = f"{info['commit'][:16]}-{target.definition_hash[:10]}"
-    folder = builds_dir() / target.name / key
-    build, _ = Build.objects.get_or_create(
-        target=target_row, machine=machine, commit=info["commit"], definition_hash=target.definition_hash,
-        defaults={"revision": target.revision})
-    if (build.status == Build.Status.COMPLETE and not force and (folder / DONE_MARKER).is_file()):
+    ws = workspace()
+    key = f"{info['commit'][:12]}-{target.definition_hash[:8]}"
+    folder = ws.builds / target.name / key
+    lock = ws.lock(f"build-{target.name}-{key}")
+    try:
+        lock.acquire(timeout=1)
+    except Timeout:
+        say(f"waiting for another harness process building {target.name} at {info['commit'][:12]} ...")
+        lock.acquire()
+    try:
+        build, _ = Build.objects.get_or_create(
+            target=target_row, machine=machine, commit=info["commit"], definition_hash=target.definition_hash,
+            defaults={"revision": target.revision})
+        if not (build.status == Build.Status.COMPLETE and not force and (folder / DONE_MARKER).is_file()):
+            _run_recipe(target, build, info, folder, say)
+            if force:
+                # a forced rebuild replaces the binary of this commit too: its results are outdated
+                build.runs.exclude(state=Run.State.OUTDATED).update(state=Run.State.OUTDATED, replaced=True)
+        make_current(build)
         return build
+    finally:
+        lock.release()
+
+
+def _run_recipe(target: TargetDefinition, build, info: dict, folder: Path, say) -> None:
+    from harness.models import Build
+
     say(f"building {target.name} at {info['commit'][:12]} ({target.recipe})")
-    gitrepo.replace_folder(folder)
-    folder.mkdir(parents=True)
+    workspace().fresh_folder(folder)
     build.revision = target.revision
     build.committed_at = datetime.fromisoformat(info["committed_at"]) if info["committed_at"] else None
     build.commit_message = info["commit_message"]
@@ -131,13 +198,6 @@ def build_target(target: TargetDefinition, machine_name: str, force: bool = Fals
     build.log = _read_text(log_path)
     build.finished = _now()
     build.save()
-    # A new binary makes every earlier result of this target outdated (thesis 4.3.4); a forced rebuild
-    # of the same commit replaces the binary too.
-    earlier = Run.objects.filter(target=target_row, machine=machine).exclude(state=Run.State.OUTDATED)
-    if not force:
-        earlier = earlier.exclude(build=build)
-    earlier.update(state=Run.State.OUTDATED)
-    return build
 
 
 def _read_text(path: Path) -> str:

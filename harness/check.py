@@ -1,8 +1,10 @@
 """``harness check``: version consistency of a target's runs against its reference target, and JUnit XML.
 
-For every run of the target's current build (the newest complete build on this machine) the reference run
-is the reference target's run of the same test case and run name (its current build first, then any
-successful run on this machine, then on any machine). Results go to ``ConsistencyResult`` rows and
+For every run of the target's current build (``harness.builds.current_build``: the build of the commit the
+revision resolves to now) at the test case content of now, the reference run is chosen by
+``harness.rules.find_reference_run``: same test case, run name and content, by the reference target. A run
+whose test case changed since it ran is stale (a failure: run it again); a reference run of other content is
+never scored against, and is reported as stale. Results go to ``ConsistencyResult`` rows and
 ``Run.consistency`` / ``consistency_min``; the run's state becomes version-consistency-checked.
 
 A reviewer's ``Override`` (whole run: blank quantity; or one quantity) accepts a failure or an
@@ -17,8 +19,7 @@ from pathlib import Path
 from harness.adapters.base import UserError
 from harness.builds import current_build
 from harness.consistency import FAILING_LEVELS, QuantityResult, compare_runs, run_level
-
-SUCCESS_STATES = ("executed", "post_processed", "consistency_checked")
+from harness.rules import find_reference_run, override_keys, stale_reference
 
 
 @dataclass
@@ -37,6 +38,8 @@ class RunVerdict:
 class CheckReport:
     verdicts: list[RunVerdict] = field(default_factory=list)
     problems: list[str] = field(default_factory=list)
+    #: reference runs of other test case content than the runs they would be compared with
+    stale_references: list[str] = field(default_factory=list)
 
     @property
     def failed(self) -> list[RunVerdict]:
@@ -48,20 +51,6 @@ def series_of(run) -> list[dict]:
             for s in run.series.all()]
 
 
-def find_reference_run(run, reference_target: str):
-    from harness.models import Run
-
-    candidates = (Run.objects.filter(target__name=reference_target, testcase=run.testcase, name=run.name,
-                                     state__in=SUCCESS_STATES).order_by("-finished", "-id"))
-    build = current_build(reference_target, run.machine.name)
-    for queryset in (candidates.filter(build=build) if build else candidates.none(),
-                     candidates.filter(machine=run.machine), candidates):
-        found = queryset.first()
-        if found is not None:
-            return found
-    return None
-
-
 def _overrides(run) -> dict[str, str]:
     """quantity ('' = whole run) -> 'user: reason' of the reviewer's overrides."""
     out = {}
@@ -71,12 +60,9 @@ def _overrides(run) -> dict[str, str]:
     return out
 
 
-def _quantity_keys(result) -> tuple[str, ...]:
-    return (result.quantity, f"{result.series_name}:{result.quantity}", f"{result.series_name}.{result.quantity}")
-
-
 def check_run(run, reference_target: str | None) -> list[QuantityResult]:
-    """Score one run against its reference run and store the results; [] when it cannot be checked."""
+    """Score one run against its reference run (same test case content) and store the results; [] when it
+    cannot be checked."""
     from django.db import transaction
 
     from harness.models import ConsistencyResult, Run
@@ -120,7 +106,8 @@ def verdict_of(run, results: list[QuantityResult], has_reference_target: bool) -
     for r in results:
         if r.level not in FAILING_LEVELS:
             continue
-        accepted = whole or next((overrides[k] for k in _quantity_keys(r) if k in overrides), None)
+        accepted = whole or next((overrides[k] for k in override_keys(r.series_name, r.quantity)
+                                  if k in overrides), None)
         label = f"{r.series_name}:{r.quantity}" if r.series_kind != "thermo" else r.quantity
         if accepted:
             verdict.overridden.append(f"{label} ({r.level}) accepted by {accepted}")
@@ -136,27 +123,74 @@ def verdict_of(run, results: list[QuantityResult], has_reference_target: bool) -
     return verdict
 
 
+def stale_verdict(run, now: str) -> RunVerdict:
+    """A run whose test case changed since it ran: its result says nothing about the test case of now."""
+    return RunVerdict(run, "failed", f"stale: the test case changed since this run (ran content "
+                      f"{run.short_hash}, now {now[:10]}); run 'harness run {run.target.name}' again", "stale")
+
+
+def current_content(target) -> dict[tuple[str, str], str] | None:
+    """``{(test case path, run name): content hash}`` of the target's test cases now (None: cannot tell)."""
+    from harness.adapters import get_adapter
+    from harness.testcases import discover
+
+    try:
+        testcases, _problems = discover(target, get_adapter(target.engine))
+    except UserError:
+        return None
+    return {(t.path, e.name): t.content_hash(e.name) for t in testcases for e in t.runs if not e.problems}
+
+
 def check_targets(targets, machine: str) -> CheckReport:
-    """Check every run of each target's current build; failed runs are reported too."""
+    """Check every run of each target's current build at the test case content of now; failed and stale
+    runs are reported too."""
     from harness.models import Run
 
     report = CheckReport()
     for target in targets:
-        build = current_build(target.name, machine)
+        build = current_build(target, machine)
         if build is None:
-            report.problems.append(f"target {target.name!r} has no complete build on machine {machine!r} "
+            report.problems.append(f"target {target.name!r} has no complete build of its revision "
+                                   f"{target.revision!r} on machine {machine!r} "
                                    f"(run 'harness build {target.name}' or 'harness run {target.name}')")
             continue
-        runs = (Run.objects.filter(build=build, machine__name=machine).select_related("testcase", "machine",
-                                                                                      "target")
-                .order_by("testcase__path", "name"))
+        runs = (Run.objects.filter(build=build, machine__name=machine, replaced=False)
+                .select_related("testcase", "machine", "target", "build").order_by("testcase__path", "name"))
         if not runs.exists():
             report.problems.append(f"target {target.name!r}: no runs of its current build {build.commit[:12]} "
                                    f"on machine {machine!r} (run 'harness run {target.name}')")
+        content = current_content(target)
+        stale_before = len(report.stale_references)
         for run in runs:
+            now = content.get((run.testcase.path, run.name)) if content is not None else run.testcase_hash
+            if now is None:
+                continue  # the run configuration no longer exists
+            if now != run.testcase_hash:
+                report.verdicts.append(stale_verdict(run, now))
+                continue
             results = check_run(run, target.reference)
+            if target.reference and run.consistency == "no_reference":
+                stale = stale_reference(run, target.reference)
+                if stale is not None:
+                    report.stale_references.append(
+                        f"{target.reference} {run.testcase.path}/{run.name} at {stale.build.commit[:10]} ran test "
+                        f"case content {stale.short_hash}, not {run.short_hash}")
             report.verdicts.append(verdict_of(run, results, bool(target.reference)))
+        stale_count = len(report.stale_references) - stale_before
+        if stale_count:
+            report.problems.append(f"{stale_count} reference run(s) of {target.reference!r} are "
+                                   f"stale (other test case content); run 'harness run {target.reference}' to "
+                                   "refresh them")
     return report
+
+
+def provenance(run) -> str:
+    """What a verdict was computed on: target and commit, reference and its commit, test case content."""
+    text = f"{run.target.name} at {run.build.commit[:10]}, test case {run.short_hash or '-'}"
+    reference = run.reference_run
+    if reference is not None:
+        text += f"; reference {reference.target.name} at {reference.build.commit[:10]}"
+    return text
 
 
 def _log_tail(run) -> str:
@@ -178,7 +212,7 @@ def junit_xml(report: CheckReport) -> str:
         classname = f"{run.target.name}.{run.testcase.path.replace('/', '.')}"
         case = TestCase(run.name, classname=classname, elapsed_sec=run.wall_time or 0.0,
                         stdout=_log_tail(run), timestamp=run.started.isoformat() if run.started else None)
-        notes = []
+        notes = [provenance(run)]
         if verdict.results:
             lowest = min((r.value for r in verdict.results if r.value is not None), default=None)
             notes.append(f"consistency {run.consistency}" + (f", lowest C = {lowest:.4g}" if lowest is not None
@@ -194,7 +228,10 @@ def junit_xml(report: CheckReport) -> str:
         elif verdict.status == "skipped":
             case.add_skipped_info(message=verdict.message)
         suites.setdefault((run.target.name, run.testcase.path), []).append(case)
-    return to_xml_report_string([TestSuite(f"{target}/{path}", cases) for (target, path), cases in suites.items()])
+    commits = {v.run.target.name: v.run.build.commit for v in report.verdicts}
+    return to_xml_report_string([TestSuite(f"{target}/{path}", cases, properties={"target": target,
+                                                                                 "commit": commits[target]})
+                                 for (target, path), cases in suites.items()])
 
 
 def write_junit(report: CheckReport, path: Path) -> None:

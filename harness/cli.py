@@ -13,7 +13,10 @@ import signal
 import socket
 import sys
 
+from pathlib import Path
+
 from harness.adapters.base import UserError
+from harness.workspace import Workspace, segment_problem, use_workspace
 
 
 def _commands():
@@ -34,9 +37,10 @@ def build_parser() -> argparse.ArgumentParser:
                                      "for DEM codes (build targets, run test cases, check consistency).")
     parser.add_argument("--machine", default=os.environ.get("HARNESS_MACHINE") or socket.gethostname(),
                         help="machine name runs are recorded under (default: hostname)")
-    parser.add_argument("--home", help="workspace folder: store, builds, runs (sets HARNESS_HOME)")
-    parser.add_argument("--targets", help="folder of target definitions (default: targets/ of the project; "
-                        "sets HARNESS_TARGETS)")
+    parser.add_argument("--home", help="workspace folder: store, builds, runs (default: $HARNESS_HOME, "
+                        "else .harness/ in the project)")
+    parser.add_argument("--targets", dest="targets_dir", help="folder of target definitions (default: "
+                        "$HARNESS_TARGETS, else targets/ of the project)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for module in _commands():
         command = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
@@ -51,26 +55,14 @@ def _terminate(signum, frame):
 
 
 def main(argv: list[str] | None = None) -> int:
-    # --home must be applied before the store's settings are imported by any subcommand
     args_list = sys.argv[1:] if argv is None else list(argv)
+    # the workspace is chosen before any subcommand configures the store in it
     pre = argparse.ArgumentParser(add_help=False)
     pre.add_argument("--home")
-    pre.add_argument("--targets")
     known, _ = pre.parse_known_args(args_list)
-    # main() also runs in-process (tests, scripts): put the environment back afterwards
-    saved = {name: os.environ.get(name) for name in ("HARNESS_HOME", "HARNESS_TARGETS")}
-    try:
-        if known.home:
-            os.environ["HARNESS_HOME"] = os.path.abspath(os.path.expanduser(known.home))
-        if known.targets:
-            os.environ["HARNESS_TARGETS"] = os.path.abspath(os.path.expanduser(known.targets))
+    ws = Workspace.at(known.home) if known.home else Workspace.from_environment()
+    with use_workspace(ws):
         return _dispatch(args_list)
-    finally:
-        for name, value in saved.items():
-            if value is None:
-                os.environ.pop(name, None)
-            else:
-                os.environ[name] = value
 
 
 def _dispatch(args_list: list[str]) -> int:
@@ -79,6 +71,12 @@ def _dispatch(args_list: list[str]) -> int:
     if not getattr(args, "_run", None):
         parser.print_help()
         return 2
+    problem = segment_problem(args.machine)
+    if problem:
+        print(f"harness: error: --machine: {problem}", file=sys.stderr)
+        return 1
+    if args.targets_dir:
+        args.targets_dir = Path(args.targets_dir).expanduser().resolve()
     previous = signal.signal(signal.SIGTERM, _terminate) if _in_main_thread() else None
     try:
         return int(args._run(args) or 0)

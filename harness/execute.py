@@ -20,7 +20,7 @@ from pathlib import Path
 
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
-from harness.gitrepo import replace_folder
+from harness.workspace import Workspace
 
 RECORD_FILE = "run.json"
 RECORD_VERSION = 1
@@ -90,17 +90,19 @@ def signal_name(number: int) -> str:
 
 
 def prepare_folder(spec: dict) -> Path:
-    """A fresh run folder holding the test case's files and the dependency's ``post/``."""
+    """A fresh run folder holding the test case's files (``harness.testcases.testcase_files``, the files its
+    content hash covers) and the dependency's ``post/``. Only a folder inside the workspace is replaced."""
     folder = Path(spec["folder"])
-    replace_folder(folder)
+    Workspace.at(spec["workspace"]).fresh_folder(folder)
     source_folder = Path(spec["source_folder"])
-    shutil.copytree(source_folder, folder, symlinks=True,
-                    ignore=shutil.ignore_patterns("post", RECORD_FILE, ".git"))
+    for rel in spec["files"]:
+        source, destination = source_folder / rel, folder / rel
+        destination.parent.mkdir(parents=True, exist_ok=True)
+        if source.is_symlink():
+            os.symlink(os.readlink(source), destination)
+        else:
+            shutil.copy2(source, destination)
     (folder / "post").mkdir(exist_ok=True)
-    # post/restart/ belongs to the test case (thesis 4.3.1: restart files the case needs); the rest of
-    # post/ is output, and a stale copy of it would be mistaken for this run's results
-    if (source_folder / "post" / "restart").is_dir():
-        shutil.copytree(source_folder / "post" / "restart", folder / "post" / "restart", symlinks=True)
     dependency = spec.get("dependency_folder")
     if dependency:
         source = Path(dependency) / "post"
@@ -110,8 +112,8 @@ def prepare_folder(spec: dict) -> Path:
 
 
 def base_record(spec: dict) -> dict:
-    keys = ("machine", "target", "target_definition", "build", "testcase", "run", "config", "folder",
-            "command", "adapter")
+    keys = ("machine", "target", "target_definition", "build", "testcase", "run", "testcase_hash", "config",
+            "folder", "command", "adapter")
     record = {key: spec.get(key) for key in keys}
     record.update(version=RECORD_VERSION, state="not_executed", failure_reason="", failure_message="",
                   exit_code=None, started=None, finished=None, wall_time=None, timing={}, warning_count=0,

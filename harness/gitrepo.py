@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import hashlib
 import io
-import shutil
 import tarfile
 from datetime import datetime, timezone
 from pathlib import Path
@@ -15,13 +14,13 @@ from pathlib import Path
 import git
 
 from harness.adapters.base import UserError
-from harness.paths import builds_dir
+from harness.workspace import workspace
 
 
 def open_repository(location: str) -> git.Repo:
     """A local repository, or a bare mirror of a remote one (fetched on every call) in the build cache."""
     if "://" in location or location.startswith("git@"):
-        mirror = builds_dir() / "repos" / hashlib.sha1(location.encode()).hexdigest()[:16]
+        mirror = workspace().builds / "repos" / hashlib.sha1(location.encode()).hexdigest()[:16]
         try:
             if mirror.is_dir():
                 repo = git.Repo(mirror)
@@ -76,9 +75,3 @@ def export(repo: git.Repo, commit: str, folder: str, destination: Path) -> Path:
     return destination / folder if folder != "." else destination
 
 
-def replace_folder(path: Path) -> None:
-    """Remove ``path`` if it exists (a fresh folder for a build or a run)."""
-    if path.is_symlink() or path.is_file():
-        path.unlink()
-    elif path.exists():
-        shutil.rmtree(path)

@@ -56,6 +56,9 @@ class Build(models.Model):
     log = models.TextField(blank=True)
     started = models.DateTimeField(null=True, blank=True)
     finished = models.DateTimeField(null=True, blank=True)
+    current = models.BooleanField(default=False, db_index=True,
+                                  help_text="the build of the commit the target's revision resolved to when "
+                                            "last asked (one per target and machine; harness.builds)")
 
     class Meta:
         constraints = [models.UniqueConstraint(fields=["target", "machine", "commit", "definition_hash"],
@@ -63,6 +66,11 @@ class Build(models.Model):
 
     def __str__(self):
         return f"{self.target.name}@{self.commit[:10]}"
+
+    @property
+    def key(self) -> str:
+        """Short folder-safe name of the build: commit and definition hash prefixes."""
+        return f"{self.commit[:12]}-{self.definition_hash[:8]}"
 
 
 class TestCase(models.Model):
@@ -113,6 +121,9 @@ class Run(models.Model):
     build = models.ForeignKey(Build, on_delete=models.CASCADE, related_name="runs")
     testcase = models.ForeignKey(TestCase, on_delete=models.CASCADE, related_name="runs")
     name = models.CharField(max_length=200, help_text="run configuration name from run.config")
+    testcase_hash = models.CharField(max_length=64, blank=True, default="", db_index=True,
+                                     help_text="sha256 of the test case content as run: run.config entry, "
+                                               "variables, every file copied into the run folder")
     state = models.CharField(max_length=32, choices=State.choices, default=State.NOT_EXECUTED, db_index=True)
     failure_reason = models.CharField(max_length=32, choices=FailureReason.choices, blank=True, default="")
     failure_message = models.TextField(blank=True)
@@ -129,18 +140,25 @@ class Run(models.Model):
     consistency_min = models.FloatField(null=True, blank=True, help_text="lowest C over all quantities")
     reference_run = models.ForeignKey("self", null=True, blank=True, on_delete=models.SET_NULL,
                                       related_name="compared_runs")
+    replaced = models.BooleanField(default=False, help_text="a newer run of the same build and test case "
+                                   "(other content, or a forced rebuild) took its place: it stays outdated")
     created = models.DateTimeField(auto_now_add=True)
     updated = models.DateTimeField(auto_now=True)
 
     objects = RunQuerySet.as_manager()
 
     class Meta:
-        constraints = [models.UniqueConstraint(fields=["machine", "build", "testcase", "name"],
-                                               name="unique_run_per_build")]
+        constraints = [models.UniqueConstraint(fields=["machine", "build", "testcase", "name", "testcase_hash"],
+                                               name="unique_run_per_build_and_content")]
         indexes = [models.Index(fields=["machine", "target", "state"])]
 
     def __str__(self):
         return f"{self.target.name}:{self.testcase.path}/{self.name}"
+
+    @property
+    def short_hash(self) -> str:
+        """The test case hash as shown in tables and reports (10 hex digits)."""
+        return self.testcase_hash[:10]
 
 
 class Series(models.Model):

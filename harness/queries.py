@@ -13,10 +13,7 @@ from django.db import models
 from django.db.models import Count, Exists, Min, OuterRef, Q, Sum, Value
 from django.db.models.functions import Concat
 
-#: run states whose execution succeeded (thesis 4.3.4: executed, post-processed, checked)
-SUCCESS_STATES = ("executed", "post_processed", "consistency_checked")
-#: consistency levels that pass (thesis 4.4.1: perfect < 5 %, good < 10 %)
-CONSISTENT_LEVELS = ("perfect", "good")
+from harness.rules import CONSISTENT_LEVELS, OVERRIDE_SEPARATORS, SUCCESS_STATES, find_reference_run
 
 #: outcome categories of the two overview modes, in display order
 STATE_CATEGORIES = ("successful", "failed", "not_executed", "outdated")
@@ -50,11 +47,11 @@ def accepted_expression():
     from harness.models import ConsistencyResult, Override
 
     whole_run = Exists(Override.objects.filter(run=OuterRef("pk"), quantity=""))
-    # the same keys `harness check` honours: "ke", "torqueZ:torque", "torqueZ.torque"
-    quantity_override = Override.objects.filter(run=OuterRef("run_id")).filter(
-        Q(quantity=OuterRef("quantity"))
-        | Q(quantity=Concat(OuterRef("series_name"), Value(":"), OuterRef("quantity")))
-        | Q(quantity=Concat(OuterRef("series_name"), Value("."), OuterRef("quantity"))))
+    # the keys `harness check` honours (harness.rules.override_keys): "ke", "torqueZ:torque", "torqueZ.torque"
+    named = Q(quantity=OuterRef("quantity"))
+    for separator in OVERRIDE_SEPARATORS:
+        named |= Q(quantity=Concat(OuterRef("series_name"), Value(separator), OuterRef("quantity")))
+    quantity_override = Override.objects.filter(run=OuterRef("run_id")).filter(named)
     unaccepted_bad = ConsistencyResult.objects.filter(run=OuterRef("pk")).exclude(
         level__in=CONSISTENT_LEVELS).exclude(Exists(quantity_override))
     all_bad_overruled = Q(consistency="inconsistent") & ~Exists(unaccepted_bad)
@@ -250,15 +247,14 @@ class RunQuerySet(models.QuerySet):
 
 
     def reference_for(self, run):
-        """The reference run of ``run``: the stored one, else the same machine, test case and run name by
-        the reference target's newest build (thesis 4.4); None without a reference target."""
+        """The reference run of ``run``: the one its check scored against, else the one ``harness check``
+        would choose (harness.rules.find_reference_run); None without a reference target."""
         if run.reference_run_id:
             return self.detail().filter(pk=run.reference_run_id).first()
         if not run.target.reference_id:
             return None
-        return (self.detail().filter(target_id=run.target.reference_id, machine_id=run.machine_id,
-                                     testcase_id=run.testcase_id, name=run.name)
-                .order_by("-build__committed_at", "-build__started", "-id").first())
+        found = find_reference_run(run, run.target.reference.name)
+        return self.detail().filter(pk=found.pk).first() if found is not None else None
 
     def selected(self, ids):
         """Runs by id in the order asked (duplicates and unknown ids dropped), ready for a comparison."""

@@ -46,7 +46,9 @@ def store_record(record: dict):
                 status=Build.Status.COMPLETE, executable=json.dumps(info.get("executable") or []),
                 environment=info.get("environment") or {}, folder=info.get("folder", ""),
                 finished=_when(record.get("started")))
+            _adopt_imported_build(build)
         testcase = TestCase.objects.get_or_create(path=record["testcase"])[0]
+        content = record.get("testcase_hash") or ""
         fields = dict(
             target=target, state=record["state"], failure_reason=record.get("failure_reason", ""),
             failure_message=record.get("failure_message", ""), config=record.get("config") or {},
@@ -54,9 +56,13 @@ def store_record(record: dict):
             exit_code=record.get("exit_code"), started=_when(record.get("started")),
             finished=_when(record.get("finished")), wall_time=record.get("wall_time"),
             timing=record.get("timing") or {}, warning_count=record.get("warning_count", 0),
-            consistency="", consistency_min=None, reference_run=None)
+            consistency="", consistency_min=None, reference_run=None, replaced=False)
         run, _ = Run.objects.update_or_create(machine=machine, build=build, testcase=testcase,
-                                              name=record["run"], defaults=fields)
+                                              name=record["run"], testcase_hash=content, defaults=fields)
+        # the same run of earlier (or other) test case content is kept, with its folder, as outdated
+        (Run.objects.filter(machine=machine, build=build, testcase=testcase, name=record["run"])
+         .exclude(pk=run.pk).exclude(state=Run.State.OUTDATED, replaced=True)
+         .update(state=Run.State.OUTDATED, replaced=True))
         run.consistency_results.all().delete()
         run.series.all().delete()
         Series.objects.bulk_create([
@@ -64,6 +70,18 @@ def store_record(record: dict):
                    columns=s.get("columns", {}), meta=s.get("meta", {}))
             for s in record.get("series", [])])
     return run
+
+
+def _adopt_imported_build(build) -> None:
+    """A build first seen in an imported record becomes its machine's current build of the target when
+    that machine has none yet or only one of an older commit (the other machine resolved the revision,
+    not this one; its newest commit is the best guess of what it runs now)."""
+    from harness.builds import make_current
+    from harness.models import Build
+
+    current = Build.objects.filter(target_id=build.target_id, machine_id=build.machine_id, current=True).first()
+    if current is None or (build.committed_at and current.committed_at and build.committed_at > current.committed_at):
+        make_current(build)
 
 
 def read_record(path: Path) -> dict:

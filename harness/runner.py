@@ -8,11 +8,14 @@ flight as failed with reason ``interrupted``; the next ``harness run`` picks the
 """
 from __future__ import annotations
 
+import hashlib
 import os
 import shlex
 import shutil
+import signal
 import subprocess
 import sys
+import threading
 import time
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor
 from concurrent.futures import wait as wait_futures
@@ -24,11 +27,10 @@ from harness import execute as ex
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
 from harness.builds import build_target
-from harness.paths import runs_dir
+from harness.rules import SUCCESS_STATES
 from harness.targets import TargetDefinition
 from harness.testcases import CONFIG_RUN, RunEntry, TestCaseSpec, discover, matches
-
-SUCCESS_STATES = ("executed", "post_processed", "consistency_checked")
+from harness.workspace import workspace
 
 
 @dataclass
@@ -49,6 +51,7 @@ class Task:
     spec: dict
     depends_on: tuple | None = None
     dependency_folder: str | None = None
+    lock: object = None                # held from submission until the record is stored
 
 
 @dataclass
@@ -98,14 +101,16 @@ def mpi_prefix(target: TargetDefinition, config: dict) -> list[str] | None:
     return launcher + extra + ["-np", str(nprocs)]
 
 
-def run_folder(machine: str, target: str, testcase: str, run: str) -> Path:
-    return runs_dir() / machine / target / testcase / run
+def run_folder(machine: str, target: str, build_key: str, testcase: str, run: str, testcase_hash: str) -> Path:
+    """``runs/<machine>/<target>/<commit>-<definition>/<test case>/<run>.<content hash>/``: a folder per
+    build and test case content, so no later run overwrites an earlier revision's files."""
+    return workspace().runs / machine / target / build_key / testcase / f"{run}.{testcase_hash[:8]}"
 
 
 def _build_info(build) -> dict:
     import json
 
-    return {"id": build.id, "commit": build.commit, "revision": build.revision,
+    return {"id": build.id, "key": build.key, "commit": build.commit, "revision": build.revision,
             "definition_hash": build.definition_hash, "executable": json.loads(build.executable or "[]"),
             "environment": build.environment or {}, "folder": build.folder,
             "committed_at": build.committed_at.isoformat() if build.committed_at else None,
@@ -118,12 +123,15 @@ def make_spec(target: TargetDefinition, build_info: dict, adapter, machine: str,
     mapping = dict(target.thermo_columns)
     mapping.update(config.get("thermo_columns") or {})
     variables = {str(k): v for k, v in (config.get("variables") or {}).items()}
+    content = testcase.content_hash(entry.name)
     spec = {
         "machine": machine, "target": target.name, "target_definition": target.as_dict(),
-        "build": build_info, "testcase": testcase.path, "run": entry.name, "config": config,
-        "adapter": adapter.name, "thermo_columns": mapping, "environment": build_info["environment"],
-        "folder": str(run_folder(machine, target.name, testcase.path, entry.name)),
-        "source_folder": str(testcase.folder), "timeout": entry.timeout, "command": [],
+        "build": build_info, "testcase": testcase.path, "run": entry.name, "testcase_hash": content,
+        "config": config, "adapter": adapter.name, "thermo_columns": mapping,
+        "environment": build_info["environment"], "workspace": str(workspace().home),
+        "folder": str(run_folder(machine, target.name, build_info["key"], testcase.path, entry.name, content)),
+        "source_folder": str(testcase.folder), "files": testcase.files(), "timeout": entry.timeout,
+        "command": [],
     }
     if entry.script is not None and not entry.problems:
         spec["command"] = adapter.command(build_info["executable"], entry.script, variables, adapter.log_file(),
@@ -150,7 +158,8 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
     testcases, problems = discover(target, adapter, options.working_tree)
     report.problems.extend(problems)
     info = _build_info(build)
-    existing = {(r.testcase.path, r.name): r for r in
+    # a run is the same run only at the same test case content: an edited scene is run again
+    existing = {(r.testcase.path, r.name, r.testcase_hash): r for r in
                 Run.objects.filter(machine__name=options.machine, build=build).select_related("testcase")}
     tasks: dict[tuple, Task] = {}
 
@@ -159,7 +168,7 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
         if key in tasks:
             return
         spec = make_spec(target, info, adapter, options.machine, testcase, entry)
-        previous = existing.get((testcase.path, entry.name))
+        previous = existing.get((testcase.path, entry.name, spec["testcase_hash"]))
         if entry.problems:
             report.problems.extend(entry.problems)
             record = ex.fail(ex.base_record(spec), "config", "; ".join(entry.problems))
@@ -174,7 +183,7 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
         task = Task(key, spec)
         if dependency is not None:
             dep_key = (target.name, testcase.path, dependency.name)
-            dep_previous = existing.get((testcase.path, dependency.name))
+            dep_previous = existing.get((testcase.path, dependency.name, testcase.content_hash(dependency.name)))
             if dep_key in tasks or _needs_run(dep_previous, options) or dep_previous.state not in SUCCESS_STATES:
                 add(testcase, dependency, force=True)
                 task.depends_on = dep_key
@@ -244,17 +253,69 @@ def _progress(done: int, total: int, record: dict, out) -> None:
     out.flush()
 
 
+def _run_lock(task: Task):
+    """The cross-process lock of a run folder: one harness process at a time runs a given run."""
+    if task.lock is None:
+        digest = hashlib.sha1(task.spec["folder"].encode()).hexdigest()[:20]
+        task.lock = workspace().lock(f"run-{digest}")
+    return task.lock
+
+
+def _claim(task: Task, options: RunOptions, waiting: set, out) -> str:
+    """Take a run's lock without waiting: ``"claimed"``, ``"busy"`` (another process runs it) or ``"done"``
+    (another process finished it while this one waited, and it need not run again)."""
+    from filelock import Timeout
+
+    from harness.models import Run
+
+    try:
+        _run_lock(task).acquire(timeout=0)
+    except Timeout:
+        if task.key not in waiting:
+            waiting.add(task.key)
+            out.write(f"waiting for another harness process running {task.key[0]} {task.key[1]}/{task.key[2]} ...\n")
+            out.flush()
+        return "busy"
+    if task.key in waiting:
+        spec = task.spec
+        row = Run.objects.filter(machine__name=spec["machine"], build_id=spec["build"]["id"],
+                                 testcase__path=spec["testcase"], name=spec["run"],
+                                 testcase_hash=spec["testcase_hash"]).first()
+        again = RunOptions(**{**options.__dict__, "rerun_all": False})
+        if row is not None and row.finished is not None and not _needs_run(row, again):
+            task.lock.release()
+            return "done"
+    return "claimed"
+
+
+def _release(task: Task) -> None:
+    if task.lock is not None and task.lock.is_locked:
+        task.lock.release()
+
+
 def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out=None) -> None:
+    """Execute the planned runs and store each record as it comes back.
+
+    Each run is claimed with a lock on its run folder first, so harness processes sharing a workspace never
+    run the same run at once nor touch each other's folders; a run another process is running is waited
+    for (and not run again when that process finished it).
+    """
+    from harness.models import Run
     from harness.records import store_record
 
     out = out or sys.stderr
     total = len(tasks)
     done_count = 0
     results: dict[tuple, dict] = {}
+    waiting: set = set()
 
-    def finish(record: dict) -> None:
+    def finish(record: dict, task: Task | None = None) -> None:
         nonlocal done_count
-        store_record(record)
+        try:
+            store_record(record)
+        finally:
+            if task is not None:
+                _release(task)
         report.records.append(record)
         results[tuple((record["target"], record["testcase"], record["run"]))] = record
         done_count += 1
@@ -274,33 +335,49 @@ def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out
     running: dict = {}
     try:
         while pending or running:
+            submitted = False
             for task in list(pending):
                 if len(running) >= pool.slots:
                     break
+                dep = None
                 if task.depends_on is not None:
                     dep = results.get(task.depends_on)
                     if dep is None and task.depends_on in planned:
                         continue
                     if dep is None:
                         dep = {"state": "not_executed", "failure_reason": ""}
-                    pending.remove(task)
+                claim = _claim(task, options, waiting, out)
+                if claim == "busy":
+                    continue
+                pending.remove(task)
+                submitted = True
+                if claim == "done":
+                    row = Run.objects.get(build_id=task.spec["build"]["id"], machine__name=task.spec["machine"],
+                                          testcase__path=task.spec["testcase"], name=task.spec["run"],
+                                          testcase_hash=task.spec["testcase_hash"])
+                    results[task.key] = {"state": row.state, "failure_reason": row.failure_reason,
+                                         "folder": row.folder}
+                    report.skipped += 1
+                    total -= 1
+                    continue
+                if dep is not None:
                     if dep["state"] not in SUCCESS_STATES:
                         record = ex.fail(ex.base_record(task.spec), "dependency",
                                          f"dependency {task.depends_on[2]!r} {dep['state']}"
                                          + (f" ({dep['failure_reason']})" if dep["failure_reason"] else ""))
                         record["finished"] = ex.now_iso()
-                        finish(record)
+                        finish(record, task)
                         continue
                     task.spec["dependency_folder"] = dep["folder"]
-                else:
-                    pending.remove(task)
-                    if task.dependency_folder:
-                        task.spec["dependency_folder"] = task.dependency_folder
+                elif task.dependency_folder:
+                    task.spec["dependency_folder"] = task.dependency_folder
                 in_flight = ex.base_record(task.spec)
                 in_flight["started"] = ex.now_iso()
                 store_record(in_flight)
                 running[pool.submit(task.spec)] = task
             if not running:
+                if pending and not submitted:
+                    time.sleep(0.2)  # every remaining run is held by another process
                 continue
             for future in pool.wait_any(running):
                 task = running.pop(future)
@@ -310,21 +387,36 @@ def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out
                     record = ex.fail(ex.base_record(task.spec), "post_processing",
                                      f"harness error: {type(exc).__name__}: {exc}")
                     record["finished"] = ex.now_iso()
-                finish(record)
+                finish(record, task)
     except KeyboardInterrupt:
-        ex.kill_all_running()
-        pool.cancel(running)
-        pool.close()  # let the local workers see their engines die and stop before the records are written
-        for task in running.values():
-            record = ex.fail(ex.base_record(task.spec), "interrupted", "the harness was interrupted")
-            record["finished"] = ex.now_iso()
-            ex.write_record(record)
-            store_record(record)
-            report.records.append(record)
+        # a second Ctrl-C (or SIGTERM) must not cut the recording of the runs in flight short
+        previous = {sig: signal.signal(sig, signal.SIG_IGN) for sig in (signal.SIGINT, signal.SIGTERM)} \
+            if threading.current_thread() is threading.main_thread() else {}
+        try:
+            out.write("harness: interrupted: stopping the engines and recording the runs in flight "
+                      "(further Ctrl-C is ignored until that is done)\n")
+            out.flush()
+            ex.kill_all_running()
+            pool.cancel(running)
+            pool.close()  # let the local workers see their engines die and stop before the records are written
+            for task in running.values():
+                record = ex.fail(ex.base_record(task.spec), "interrupted", "the harness was interrupted")
+                record["finished"] = ex.now_iso()
+                ex.write_record(record)
+                try:
+                    store_record(record)
+                finally:
+                    _release(task)
+                report.records.append(record)
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
         raise
     finally:
         pool.close()
         ex.clear_interrupt()
+        for task in tasks:
+            _release(task)
 
 
 def run_targets(targets: list[TargetDefinition], options: RunOptions, out=None) -> RunReport:

@@ -6,7 +6,7 @@ SQLite in ``$HARNESS_HOME/harness.sqlite3`` by default; PostgreSQL (or any Djang
 import os
 from urllib.parse import urlparse, unquote
 
-from harness.paths import database_path, harness_home
+from harness.workspace import workspace
 
 SECRET_KEY = os.environ.get("HARNESS_SECRET_KEY", "dev-only-not-secret-change-me-in-production-0123456789")
 USE_TZ = True
@@ -41,12 +41,16 @@ def _database_from_url(url: str) -> dict:
 if os.environ.get("HARNESS_DATABASE_URL"):
     DATABASES = {"default": _database_from_url(os.environ["HARNESS_DATABASE_URL"])}
 else:
-    harness_home().mkdir(parents=True, exist_ok=True)
+    workspace().home.mkdir(parents=True, exist_ok=True)
     DATABASES = {
         "default": {
             "ENGINE": "django.db.backends.sqlite3",
-            "NAME": str(database_path()),
-            # Runs finishing in parallel write the same file: wait for the lock instead of failing.
-            "OPTIONS": {"timeout": 30},
+            "NAME": str(workspace().database),
+            # Several harness processes (run, check, import, serve) share one file. WAL lets readers go on
+            # while one writes; IMMEDIATE takes the write lock when a transaction starts, so two writers
+            # queue on the busy timeout instead of one failing at once with "database is locked" when
+            # it upgrades a read lock.
+            "OPTIONS": {"timeout": 120, "transaction_mode": "IMMEDIATE",
+                        "init_command": "PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;"},
         }
     }

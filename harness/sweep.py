@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from harness.acceptance import REDUCTIONS, reduce_values
+from harness.rules import SUCCESS_STATES
 
 SEPARATOR = "@"
 
@@ -245,7 +246,7 @@ def sweeps_in_store(runs) -> list[SweepResult]:
         spec = members[0].config["sweep_point"]["spec"]
         points = []
         for run in members:
-            ok = run.state in ("post_processed", "consistency_checked", "executed")
+            ok = run.state in SUCCESS_STATES
             quantity = measure(spec["error"], series_frames(run)) if ok else None
             # the engine's own loop time, in CPU seconds where it reports them (runs share the cores): process
             # start-up and kernel compilation are no cost of accuracy

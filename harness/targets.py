@@ -44,7 +44,7 @@ from pathlib import Path
 
 from harness.adapters.base import UserError
 from harness.jsonfile import Problems, expect_type, json_path, load_json
-from harness.paths import PROJECT_ROOT
+from harness.workspace import PROJECT_ROOT
 
 WORKING_TREE = "working-tree"
 RECIPES = ("dem", "make", "system")

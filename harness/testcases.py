@@ -27,14 +27,16 @@ from pathlib import Path
 from harness import gitrepo
 from harness.adapters.base import UserError
 from harness.jsonfile import Problems, expect_type, json_path, load_json
-from harness.paths import builds_dir
 from harness.targets import WORKING_TREE, TargetDefinition
+from harness.workspace import RESERVED_NAMES, workspace
 
 RUN_CONFIG = "run.config"
 RUN_TYPES = ("serial", "mpi", "mpi/custom")
 DEFAULT_TIMEOUT = 600.0
 #: folders of a test case that never hold a nested test case (thesis 4.3.1)
-NOT_TESTCASES = {"post", "meshes", "scripts", "restart", "__pycache__"}
+NOT_TESTCASES = RESERVED_NAMES
+#: never part of a test case's content: its output folder (but post/restart/), records, version control
+_NOT_CONTENT = {"post", "run.json", ".git", "__pycache__"}
 RUN_KEYS = {"name", "type", "nprocs", "mpi_options", "script", "variables", "depends_on", "post_scripts", "data",
             "timeout", "thermo_columns", "consistency", "vtk", "expectations", "stability", "description",
             "sweep", "sweep_point"}
@@ -71,6 +73,78 @@ class TestCaseSpec:
 
     def run(self, name: str) -> RunEntry | None:
         return next((entry for entry in self.runs if entry.name == name), None)
+
+    def files(self) -> list[str]:
+        """The files a run folder gets (relative POSIX paths, sorted); see ``testcase_files``."""
+        if self._files is None:
+            self._files = testcase_files(self.folder)
+        return self._files
+
+    def content_hash(self, name: str) -> str:
+        """sha256 (hex) of run ``name`` as it runs: its run.config entry (variables included), the bytes of
+        every file copied into its run folder, and the content hash of the run it depends on (whose
+        ``post/`` it receives). A change to any of them makes it another run (harness.runner)."""
+        if name not in self._hashes:
+            entry = self.run(name)
+            digest = hashlib.sha256()
+            digest.update(json.dumps(entry.config if entry else {}, sort_keys=True, default=str).encode())
+            digest.update(self._files_digest().encode())
+            dependency = entry.depends_on if entry else None
+            self._hashes[name] = ""  # a dependency cycle (reported by validation) must not recurse
+            if isinstance(dependency, str) and self.run(dependency) is not None:
+                digest.update(self.content_hash(dependency).encode())
+            self._hashes[name] = digest.hexdigest()
+        return self._hashes[name]
+
+    def _files_digest(self) -> str:
+        if self._digest is None:
+            digest = hashlib.sha256()
+            for rel in self.files():
+                path = self.folder / rel
+                digest.update(rel.encode() + b"\0")
+                if path.is_symlink():
+                    digest.update(b"link:" + os.readlink(path).encode())
+                else:
+                    digest.update(hashlib.sha256(path.read_bytes()).digest())
+            self._digest = digest.hexdigest()
+        return self._digest
+
+    _files: list | None = field(default=None, repr=False, compare=False)
+    _digest: str | None = field(default=None, repr=False, compare=False)
+    _hashes: dict = field(default_factory=dict, repr=False, compare=False)
+
+
+def testcase_files(folder: Path) -> list[str]:
+    """Files of the test case in ``folder``: everything below it except ``post/`` (but ``post/restart/``,
+    restart files the case ships, thesis 4.3.1), ``run.json``, ``.git``, ``__pycache__`` and the folders
+    of nested test cases (a subfolder with its own run.config is another test case)."""
+    folder = Path(folder)
+    found = []
+    for current, dirs, files in os.walk(folder):
+        current = Path(current)
+        rel_dir = current.relative_to(folder)
+        keep = []
+        for d in sorted(dirs):
+            path = current / d
+            if d in _NOT_CONTENT and not (rel_dir == Path("post") and d == "restart"):
+                if not (current == folder and d == "post" and (path / "restart").is_dir()):
+                    continue
+            if (path / RUN_CONFIG).is_file() and not path.is_symlink():
+                continue
+            if path.is_symlink():
+                files.append(d)  # a linked folder is copied as the link
+                continue
+            keep.append(d)
+        dirs[:] = keep
+        in_post = rel_dir.parts[:1] == ("post",)
+        for name in sorted(files):
+            rel = (rel_dir / name).as_posix()
+            if in_post and not rel.startswith("post/restart/"):
+                continue
+            if name in _NOT_CONTENT:
+                continue
+            found.append(rel)
+    return sorted(found)
 
 
 def _validate_data(problems: Problems, data, where: list) -> None:
@@ -332,17 +406,20 @@ def testcase_root(target: TargetDefinition, working_tree: bool = False) -> Path:
     commit = gitrepo.resolve(repo, target.testcases_revision).hexsha
     # one export per repository, commit and set of folders (another target may list other folders)
     key = hashlib.sha1(json.dumps([str(target.testcases_repository), sorted(target.testcases)]).encode())
-    root = builds_dir() / "testcases" / key.hexdigest()[:12] / commit
-    if not (root / ".done").is_file():
-        gitrepo.replace_folder(root)
-        for folder in target.testcases:
-            if not Path(folder).is_absolute():
-                try:
-                    gitrepo.export(repo, commit, folder, root)
-                except UserError:
-                    pass  # reported by discover() as a missing folder
-        root.mkdir(parents=True, exist_ok=True)
-        (root / ".done").write_text(commit)
+    ws = workspace()
+    root = ws.builds / "testcases" / key.hexdigest()[:12] / commit
+    if (root / ".done").is_file():
+        return root
+    with ws.lock(f"testcases-{key.hexdigest()[:12]}-{commit}"):  # another process may export it right now
+        if not (root / ".done").is_file():
+            ws.fresh_folder(root)
+            for folder in target.testcases:
+                if not Path(folder).is_absolute():
+                    try:
+                        gitrepo.export(repo, commit, folder, root)
+                    except UserError:
+                        pass  # reported by discover() as a missing folder
+            (root / ".done").write_text(commit)
     return root
 
 

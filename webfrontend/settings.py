@@ -4,7 +4,7 @@
 """
 import os
 
-from harness.paths import harness_home
+from harness.workspace import workspace
 from harness.settings import *  # noqa: F401,F403  (the same store the CLI writes)
 from harness.settings import INSTALLED_APPS as _STORE_APPS
 
@@ -48,7 +48,7 @@ TEMPLATES = [{
 }]
 
 STATIC_URL = "static/"
-STATIC_ROOT = str(harness_home() / "static")
+STATIC_ROOT = str(workspace().home / "static")
 WHITENOISE_USE_FINDERS = True
 
 LOGIN_URL = "login"

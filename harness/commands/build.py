@@ -17,7 +17,7 @@ def run(args) -> int:
     from harness.targets import select_targets
 
     setup_store()
-    targets, problems = select_targets(args.targets)
+    targets, problems = select_targets(args.targets, args.targets_dir)
     for problem in problems:
         print(f"harness: {problem}", file=sys.stderr)
     status = 1 if problems else 0

@@ -17,15 +17,21 @@ def run(args) -> int:
     from harness.targets import select_targets
 
     setup_store()
-    targets, problems = select_targets(args.targets)
+    targets, problems = select_targets(args.targets, args.targets_dir)
     report = check_targets(targets, args.machine)
     report.problems[:0] = problems
     for problem in report.problems:
         print(f"harness: {problem}", file=sys.stderr)
-    rows = [("target", "test case", "run", "result", "consistency", "min C", "detail")]
+    for line in report.stale_references:
+        print(f"harness: stale reference run: {line}", file=sys.stderr)
+    rows = [("target", "commit", "test case", "run", "content", "reference", "result", "consistency", "min C",
+             "detail")]
     for v in report.verdicts:
         run = v.run
-        rows.append((run.target.name, run.testcase.path, run.name, v.status, run.consistency or "-",
+        reference = run.reference_run
+        rows.append((run.target.name, run.build.commit[:10], run.testcase.path, run.name, run.short_hash or "-",
+                     f"{reference.target.name}@{reference.build.commit[:10]}" if reference is not None else "-",
+                     v.status, run.consistency or "-",
                      f"{run.consistency_min:.4g}" if run.consistency_min is not None else "-",
                      (v.message or "; ".join(v.overridden))[:100]))
     if report.verdicts:

@@ -34,7 +34,7 @@ def run(args) -> int:
     from harness.targets import select_targets
 
     setup_store()
-    targets, problems = select_targets(args.targets)
+    targets, problems = select_targets(args.targets, args.targets_dir)
     if args.targets and not args.no_reference:
         targets = with_references(targets)
     if args.jobs < 1:

@@ -9,7 +9,7 @@ import os
 import subprocess
 import sys
 
-from harness.paths import PROJECT_ROOT
+from harness.workspace import PROJECT_ROOT
 
 NAME = "serve"
 HELP = "serve the web dashboard over the store (development server)"

@@ -1,10 +1,10 @@
-"""``harness status``: per target, its current build and how many runs are in each state."""
+"""``harness status``: per target, its current build and how many runs of it are in each state."""
 NAME = "status"
-HELP = "summary per target: current build and run states"
+HELP = "summary per target: current build (commit) and its runs per state"
 
 
 def configure(parser):
-    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names (default: all in the store)")
+    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names (default: all)")
 
 
 def run(args) -> int:
@@ -16,16 +16,24 @@ def run(args) -> int:
     from harness.builds import current_build
     from harness.models import Run, Target
     from harness.runner import format_table
+    from harness.targets import load_targets
+
+    definitions, _problems = load_targets(args.targets_dir)
     targets = Target.objects.order_by("name")
     if args.targets:
         targets = targets.filter(name__in=args.targets)
     states = [s for s, _ in Run.State.choices]
-    rows = [("target", "reference", "build", *states)]
+    rows = [("target", "reference", "revision", "current build", *states, "older")]
     for target in targets:
-        build = current_build(target.name, args.machine)
-        counts = dict(Run.objects.filter(target=target, machine__name=args.machine).values_list("state")
-                      .annotate(n=Count("id")).values_list("state", "n"))
-        rows.append((target.name, target.reference.name if target.reference else "-",
-                     build.commit[:10] if build else "not built", *(counts.get(s, 0) for s in states)))
+        # a target with a definition file: its revision resolved now; an imported one: as recorded
+        definition = definitions.get(target.name)
+        build = current_build(definition or target.name, args.machine)
+        runs = Run.objects.filter(target=target, machine__name=args.machine)
+        counts = dict(runs.filter(build=build, replaced=False).values_list("state").annotate(n=Count("id"))
+                      .values_list("state", "n")) if build else {}
+        older = runs.exclude(build=build).count() if build else runs.count()
+        revision = definition.revision if definition else "-"
+        rows.append((target.name, target.reference.name if target.reference else "-", revision,
+                     build.commit[:10] if build else "not built", *(counts.get(s, 0) for s in states), older))
     print(format_table(rows) if len(rows) > 1 else "no targets in the store")
     return 0

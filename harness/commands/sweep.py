@@ -24,12 +24,12 @@ def run(args) -> int:
     from harness import sweep as sw
     from harness.builds import current_build
     from harness.models import Run
-    from harness.paths import harness_home
+    from harness.workspace import workspace
     from harness.runner import RunOptions, format_table, run_targets
     from harness.targets import select_targets
     from harness.testcases import matches
 
-    targets, problems = select_targets(args.targets)
+    targets, problems = select_targets(args.targets, args.targets_dir)
     for problem in problems:
         print(f"harness: {problem}", file=sys.stderr)
     failed_runs = 0
@@ -41,15 +41,15 @@ def run(args) -> int:
         failed_runs = len(report.failed)
     found = 0
     for target in targets:
-        build = current_build(target.name, args.machine)
+        build = current_build(target, args.machine)
         if build is None:
             continue
-        runs = Run.objects.filter(build=build, machine__name=args.machine)
+        runs = Run.objects.filter(build=build, machine__name=args.machine, replaced=False)
         for result in sw.sweeps_in_store(runs):
             if not matches(args.pattern, result.testcase, result.name):
                 continue
             found += 1
-            out = harness_home() / "sweeps" / args.machine / target.name / result.testcase
+            out = workspace().sweeps / args.machine / target.name / result.testcase
             out.mkdir(parents=True, exist_ok=True)
             result.table.to_csv(out / f"{result.name}.csv", index=False)
             title = f"{target.name}: {result.testcase}/{result.name}"

@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-from harness.paths import PROJECT_ROOT
+from harness.workspace import PROJECT_ROOT
 
 CASES = PROJECT_ROOT / "testcases"
 

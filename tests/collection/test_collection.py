@@ -10,7 +10,7 @@ import xml.etree.ElementTree as ET
 import pandas as pd
 import pytest
 
-from harness.paths import PROJECT_ROOT
+from harness.workspace import PROJECT_ROOT
 
 
 def harness(home, *args, timeout=1500):

@@ -243,10 +243,12 @@ def test_interrupt_records_runs_in_flight_and_a_rerun_picks_them_up(store, tmp_p
     env = {**os.environ, "HARNESS_HOME": str(tmp_path / "home2"), "PYTHONPATH": str(Path(__file__).parents[2])}
     command = [sys.executable, "-m", "harness.cli", "--machine", "m1", "--targets", str(targets), "run"]
     process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    folder = tmp_path / "home2" / "runs" / "m1" / "t" / "cases" / "slow" / "r"
+    runs = tmp_path / "home2" / "runs" / "m1" / "t"
     deadline = time.monotonic() + 60
-    while not (folder / "log.dem").is_file() and time.monotonic() < deadline:
+    while not list(runs.glob("*/cases/slow/r.*/log.dem")) and time.monotonic() < deadline:
         time.sleep(0.1)
+    # runs/<machine>/<target>/<build>/<test case>/<run>.<content hash>/
+    folder = next(runs.glob("*/cases/slow/r.*"))
     time.sleep(0.3)
     process.send_signal(signal.SIGINT)
     _out, err = process.communicate(timeout=30)
@@ -263,3 +265,6 @@ def test_interrupt_records_runs_in_flight_and_a_rerun_picks_them_up(store, tmp_p
     done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert "1 runs: 1 ok" in done.stdout
+    # the edited scene is other test case content: a new run folder, the interrupted run's files kept
+    assert json.loads((folder / "run.json").read_text())["failure_reason"] == "interrupted"
+    assert len(list(runs.glob("*/cases/slow/r.*/run.json"))) == 2

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from harness.cli import main
-from harness.paths import PROJECT_ROOT
+from harness.workspace import PROJECT_ROOT
 
 SCENE = [
     {"command": "create", "object": "domain", "lo": [-0.03, -0.03, -0.01], "hi": [0.03, 0.03, 0.08],

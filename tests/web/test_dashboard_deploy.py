@@ -12,7 +12,7 @@ import time
 import urllib.request
 
 from harness.commands import serve
-from harness.paths import PROJECT_ROOT
+from harness.workspace import PROJECT_ROOT
 
 
 def env_for(tmp_path, **extra):

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from django.test import TestCase
 
-from harness.paths import PROJECT_ROOT
+from harness.workspace import PROJECT_ROOT
 
 LIGGGHTS = Path("/usr/bin/liggghts")
 pytestmark = [pytest.mark.liggghts,

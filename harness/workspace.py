@@ -1,0 +1,134 @@
+"""The workspace: one folder holding the store, cached builds, run folders and sweep outputs.
+
+A ``Workspace`` is an explicit object: the CLI makes one from ``--home`` (or ``HARNESS_HOME``, or
+``.harness`` in the project checkout) and activates it for the command; nothing changes the process
+environment. It is also the only place that deletes folders (``remove_tree``), and it refuses any path
+outside its home, so no input - a run named ``..``, a test case path, a target name - can delete a folder
+elsewhere. Cross-process locks (``lock``) use the ``filelock`` package: several harness processes may share
+a workspace.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+from harness.adapters.base import UserError
+
+PROJECT_ROOT = Path(__file__).resolve().parent.parent
+
+#: characters a target, test case folder or run name may hold: one path segment, printable, no separators
+_SEGMENT = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.,:=@+\-]*$")
+#: folder names below a test case with a fixed meaning (thesis 4.3.1); never a test case or a run name
+RESERVED_NAMES = frozenset({"post", "meshes", "scripts", "restart", "__pycache__"})
+
+
+def segment_problem(name) -> str | None:
+    """Why ``name`` is not a safe single path segment (None: it is).
+
+    Allowed: letters, digits and ``_ . , : = @ + -``, not starting with ``.`` or ``-``, at most 200
+    characters, not a reserved folder name. Sweep points (``settle@DT=1e-05``) pass.
+    """
+    if not isinstance(name, str) or not name:
+        return "must be a non-empty name"
+    if len(name) > 200:
+        return f"must be at most 200 characters (got {len(name)})"
+    if not _SEGMENT.match(name):
+        return (f"{name[:60]!r} is not a safe name: use letters, digits and _ . , : = @ + - "
+                "(no '/', spaces, or a leading '.' or '-')")
+    if name in RESERVED_NAMES:
+        return f"{name!r} is a reserved folder name ({', '.join(sorted(RESERVED_NAMES))})"
+    return None
+
+
+@dataclass(frozen=True)
+class Workspace:
+    """The folder ``home`` and what lives in it."""
+
+    home: Path
+
+    @classmethod
+    def at(cls, home) -> "Workspace":
+        return cls(Path(home).expanduser().resolve())
+
+    @classmethod
+    def from_environment(cls) -> "Workspace":
+        home = os.environ.get("HARNESS_HOME")
+        return cls.at(home) if home else cls.at(PROJECT_ROOT / ".harness")
+
+    @property
+    def builds(self) -> Path:
+        return self.home / "builds"
+
+    @property
+    def runs(self) -> Path:
+        return self.home / "runs"
+
+    @property
+    def sweeps(self) -> Path:
+        return self.home / "sweeps"
+
+    @property
+    def locks(self) -> Path:
+        return self.home / "locks"
+
+    @property
+    def database(self) -> Path:
+        return self.home / "harness.sqlite3"
+
+    def contains(self, path) -> bool:
+        """Whether ``path`` (symlinks resolved) lies strictly inside the workspace."""
+        resolved = Path(path).resolve()
+        return resolved != self.home and self.home in resolved.parents
+
+    def remove_tree(self, path) -> None:
+        """Delete a file or folder inside the workspace; anything else is refused with a UserError.
+
+        This is the harness' only deleting function. A symlink is removed, never followed.
+        """
+        path = Path(path)
+        parent = path.parent.resolve()
+        if not (parent == self.home or self.home in parent.parents) or path.name in ("", ".", ".."):
+            raise UserError(f"refusing to delete {path}: it is not inside the workspace {self.home}")
+        target = parent / path.name
+        if target.is_symlink() or target.is_file():
+            target.unlink()
+        elif target.exists():
+            shutil.rmtree(target)
+
+    def fresh_folder(self, path) -> Path:
+        """An empty folder at ``path`` inside the workspace (whatever was there is removed)."""
+        path = Path(path)
+        self.remove_tree(path)
+        path.mkdir(parents=True)
+        return path
+
+    def lock(self, name: str, timeout: float = -1):
+        """A cross-process lock ``locks/<name>.lock`` (``timeout`` s; -1 waits for ever, 0 tries once)."""
+        from filelock import FileLock
+
+        self.locks.mkdir(parents=True, exist_ok=True)
+        safe = re.sub(r"[^A-Za-z0-9_.=@+-]", "_", name)[:200]
+        return FileLock(str(self.locks / f"{safe}.lock"), timeout=timeout)
+
+
+_active: Workspace | None = None
+
+
+def workspace() -> Workspace:
+    """The active workspace (set by the CLI), else the one ``HARNESS_HOME`` names, else ``.harness/``."""
+    return _active or Workspace.from_environment()
+
+
+@contextlib.contextmanager
+def use_workspace(ws: Workspace):
+    """Make ``ws`` the active workspace for the duration of the block."""
+    global _active
+    previous, _active = _active, ws
+    try:
+        yield ws
+    finally:
+        _active = previous
