@@ -20,6 +20,11 @@ The bound is ``value`` with ``rel_tol`` (fraction of |value|) and/or ``abs_tol``
      "energy_drift": {"quantity": "thermo.etotal", "rel_tol": 0.01},
      "max_overlap": {"quantity": "thermo.max_overlap", "upper": 0.1}}
 
+Every run gets the default checks ``DEFAULT_STABILITY`` - all values finite, no particle lost - unless its
+run configuration says otherwise: ``"particle_count": {"max_loss": 25}`` declares a loss (an outlet),
+``"particle_count": false`` or ``"finite": false`` drops one default, ``"stability": false`` drops both.
+A run that stops with every particle gone is thus never recorded as a success by default.
+
 ``energy_never_grows`` is for closed dissipative systems: no value may exceed the running minimum of what came
 before by more than ``rel_tol`` times the scale of the quantity (its largest absolute value) plus ``abs_tol``.
 ``after`` (same unit as the series' first column, e.g. step) skips the start-up, where insertion may add energy.
@@ -35,6 +40,17 @@ import numpy as np
 
 REDUCTIONS = ("end", "start", "min", "max", "mean")
 STABILITY_CHECKS = ("finite", "particle_count", "energy_never_grows", "energy_drift", "max_overlap")
+#: checks every run gets unless its run configuration opts out (see the module docstring)
+DEFAULT_STABILITY = {"finite": True, "particle_count": {"max_loss": 0}}
+
+
+def stability_of(entry: dict) -> dict:
+    """The stability checks a run configuration entry asks for, the defaults included (``false``: none)."""
+    declared = entry.get("stability", {})
+    if declared is False:
+        return {}
+    merged = {**DEFAULT_STABILITY, **(declared if isinstance(declared, dict) else {})}
+    return {key: spec for key, spec in merged.items() if spec is not False}
 
 
 @dataclass
@@ -105,12 +121,16 @@ def validate(entry: dict) -> list[str]:
             errors.append(f"{where}: unknown field(s) {', '.join(sorted(unknown))}")
 
     stability = entry.get("stability", {})
+    if stability is False:
+        return errors
     if not isinstance(stability, dict):
-        return errors + ["stability: must be an object"]
+        return errors + ["stability: must be an object (or false: no default checks)"]
     for key, spec in stability.items():
         where = f"stability.{key}"
         if key not in STABILITY_CHECKS:
             errors.append(f"{where}: unknown check (known: {', '.join(STABILITY_CHECKS)})")
+        elif spec is False and key in DEFAULT_STABILITY:
+            continue
         elif key == "finite":
             if not isinstance(spec, bool):
                 errors.append(f"{where}: must be true or false")
@@ -281,13 +301,15 @@ def evaluate(entry: dict, data: dict, folder: Path | None = None) -> list[Verdic
     artifacts). Returns one Verdict per check; a run fails when any verdict is not ok.
     """
     verdicts = [_check_expectation(spec, data) for spec in entry.get("expectations", [])]
-    stability = entry.get("stability", {})
-    if stability.get("finite", True) and data:
+    stability = stability_of(entry)
+    if stability.get("finite") and data:
         verdicts.append(_check_finite(data))
+    declared = entry.get("stability") if isinstance(entry.get("stability"), dict) else {}
     for key, check in _STABILITY.items():
         if key in stability:
             try:
                 verdicts.append(check(stability[key], data))
             except _MissingData as exc:
-                verdicts.append(Verdict(False, "stability", f"stability {key}: {exc}"))
+                if key in declared:  # a default check needs no data the run does not have
+                    verdicts.append(Verdict(False, "stability", f"stability {key}: {exc}"))
     return verdicts

@@ -7,7 +7,6 @@ failure reasons, post-processes, writes ``run.json`` and returns that record.
 """
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import signal
@@ -20,10 +19,11 @@ from pathlib import Path
 
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
+from harness import runrecord
+from harness.runrecord import RunRecord
 from harness.workspace import Workspace
 
-RECORD_FILE = "run.json"
-RECORD_VERSION = 1
+RECORD_FILE = runrecord.RECORD_FILE
 STDOUT, STDERR, POST_LOG = "stdout.txt", "stderr.txt", "post_scripts.log"
 TAIL_LINES = 60
 
@@ -112,24 +112,15 @@ def prepare_folder(spec: dict) -> Path:
 
 
 def base_record(spec: dict) -> dict:
-    keys = ("machine", "target", "target_definition", "build", "testcase", "run", "testcase_hash", "config",
-            "folder", "command", "adapter")
-    record = {key: spec.get(key) for key in keys}
-    record.update(version=RECORD_VERSION, state="not_executed", failure_reason="", failure_message="",
-                  exit_code=None, started=None, finished=None, wall_time=None, timing={}, warning_count=0,
-                  warnings=[], series=[], verdicts=[], log_tail="", stderr_tail="")
-    return record
+    """A fresh record of the run ``spec`` describes, in the layout ``harness.runrecord.RunRecord`` declares."""
+    return RunRecord.from_spec(spec).to_dict()
 
 
 def write_record(record: dict) -> None:
     folder = Path(record["folder"])
     if folder.is_dir():
         tmp = folder / (RECORD_FILE + ".tmp")
-        try:
-            text = json.dumps(record, indent=1, allow_nan=False)
-        except ValueError:  # a NaN in an engine's timing or a config: Python's json reads NaN back
-            text = json.dumps(record, indent=1)
-        tmp.write_text(text)
+        tmp.write_text(runrecord.dumps(record))
         os.replace(tmp, folder / RECORD_FILE)
 
 
@@ -302,7 +293,7 @@ def postprocess_run(spec: dict, folder: Path, record: dict, adapter) -> None:
         from harness import acceptance
     except ImportError:
         acceptance = None
-    if acceptance is not None and ("expectations" in config or "stability" in config):
+    if acceptance is not None:  # the default stability checks apply to every run (harness.acceptance)
         verdicts = acceptance.evaluate(config, frames, folder)
         record["verdicts"] = [{"ok": bool(v.ok), "reason": v.reason, "message": v.message} for v in verdicts]
         bad = [v for v in verdicts if not v.ok]

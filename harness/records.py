@@ -2,7 +2,10 @@
 
 ``store_record`` writes a record (from ``execute`` or read back from ``run.json``) into the store;
 ``import_folder`` finds every ``run.json`` below a folder, so runs made on another machine (and copied
-over) join the store under that machine's name.
+over) join the store under that machine's name. An imported record is validated first
+(``harness.runrecord.validate``), and one that differs from a stored run of the same identity (machine,
+target build, test case and its content, run name) is a conflict: reported and left out unless
+``replace`` is asked for, so that an edited copy of a record can never silently turn a failure into a pass.
 """
 from __future__ import annotations
 
@@ -10,8 +13,9 @@ import json
 from datetime import datetime
 from pathlib import Path
 
+from harness import runrecord
 from harness.adapters.base import UserError
-from harness.execute import RECORD_FILE
+from harness.runrecord import RECORD_FILE, finite
 
 
 def _when(value):
@@ -26,6 +30,7 @@ def store_record(record: dict):
 
     from harness.models import Build, Machine, Run, Series, Target, TestCase
 
+    record = finite(record)
     with transaction.atomic():
         machine = Machine.objects.get_or_create(name=record["machine"])[0]
         target, created = Target.objects.get_or_create(name=record["target"])
@@ -63,6 +68,10 @@ def store_record(record: dict):
         (Run.objects.filter(machine=machine, build=build, testcase=testcase, name=record["run"])
          .exclude(pk=run.pk).exclude(state=Run.State.OUTDATED, replaced=True)
          .update(state=Run.State.OUTDATED, replaced=True))
+        if not build.current and run.state != Run.State.OUTDATED:
+            # a record of a build that is not its target's current one (imported from an older revision)
+            run.state = Run.State.OUTDATED
+            run.save(update_fields=["state"])
         run.consistency_results.all().delete()
         run.series.all().delete()
         Series.objects.bulk_create([
@@ -85,20 +94,67 @@ def _adopt_imported_build(build) -> None:
 
 
 def read_record(path: Path) -> dict:
+    """A run record from ``path``, validated; a UserError naming the file and field otherwise."""
     try:
-        record = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
+        record = runrecord.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise UserError(f"{path}: not a run record ({exc})") from None
-    missing = [key for key in ("machine", "target", "testcase", "run", "state") if key not in record]
-    if not isinstance(record, dict) or missing:
-        raise UserError(f"{path}: not a run record (missing {', '.join(missing)})")
+    problems = runrecord.validate(record)
+    if problems:
+        raise UserError(f"{path}: not a valid run record: {'; '.join(problems[:3])}"
+                        + (f" (and {len(problems) - 3} more)" if len(problems) > 3 else ""))
     return record
 
 
-def import_folder(folder: Path, machine: str | None = None) -> tuple[list, list[str]]:
-    """Store every run record below ``folder``; ``machine`` overrides the recorded machine name.
+def _comparable_state(state: str, run=None) -> str:
+    """States that mean the same result: a checked run was post-processed; an outdated one what it was."""
+    from harness.rules import restored_state
 
-    The record's folder is set to where the run folder is now.
+    if state == "outdated" and run is not None:
+        state = restored_state(run)
+    return "post_processed" if state == "consistency_checked" else state
+
+
+def _series_key(items) -> str:
+    return json.dumps(sorted([s["kind"], s["name"], s.get("columns", {})] for s in items), sort_keys=True)
+
+
+def conflict(record: dict):
+    """How a record differs from the stored run of the same identity ('' when it does not, or none exists)."""
+    from harness.models import Run
+
+    build = record.get("build") or {}
+    run = Run.objects.filter(machine__name=record["machine"], target__name=record["target"],
+                             build__commit=build.get("commit", ""),
+                             build__definition_hash=build.get("definition_hash", ""),
+                             testcase__path=record["testcase"], name=record["run"],
+                             testcase_hash=record.get("testcase_hash") or "").first()
+    if run is None:
+        return ""
+    mine = {"state": _comparable_state(run.state, run), "failure_reason": run.failure_reason,
+            "failure_message": run.failure_message, "exit_code": run.exit_code,
+            "started": run.started, "finished": run.finished, "wall_time": run.wall_time}
+    theirs = {"state": _comparable_state(record["state"]), "failure_reason": record.get("failure_reason", ""),
+              "failure_message": record.get("failure_message", ""), "exit_code": record.get("exit_code"),
+              "started": _when(record.get("started")), "finished": _when(record.get("finished")),
+              "wall_time": record.get("wall_time")}
+    differ = [key for key in mine if mine[key] != theirs[key]]
+    if not differ:
+        stored = [{"kind": s.kind, "name": s.name, "columns": s.columns} for s in run.series.all()]
+        if _series_key(stored) != _series_key(finite(record.get("series", []))):
+            differ.append("series")
+    if not differ:
+        return ""
+    key = differ[0]
+    detail = f" ({mine[key]!s:.40} stored, {theirs[key]!s:.40} imported)" if key in mine else ""
+    return f"differs from the stored run #{run.pk} in {', '.join(differ)}{detail}"
+
+
+def import_folder(folder: Path, machine: str | None = None, replace: bool = False) -> tuple[list, list[str]]:
+    """Store every valid run record below ``folder``; ``machine`` overrides the recorded machine name.
+
+    The record's folder is set to where the run folder is now. Returns (stored runs, problems): a record
+    that does not validate, or conflicts with a stored one (unless ``replace``), is a problem and skipped.
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -113,5 +169,9 @@ def import_folder(folder: Path, machine: str | None = None) -> tuple[list, list[
         record["folder"] = str(path.parent.resolve())
         if machine:
             record["machine"] = machine
+        differs = conflict(record)
+        if differs and not replace:
+            problems.append(f"{path}: conflict: {differs}; not imported (--replace to replace the stored run)")
+            continue
         runs.append(store_record(record))
     return runs, problems

@@ -8,6 +8,8 @@ HELP = "import run folders (run.json records) into the store"
 def configure(parser):
     parser.add_argument("folder", help="a run folder or a folder holding run folders")
     parser.add_argument("--as-machine", metavar="NAME", help="record the runs under this machine name")
+    parser.add_argument("--replace", action="store_true",
+                        help="replace stored runs that an imported record contradicts (default: report and skip)")
 
 
 def run(args) -> int:
@@ -15,7 +17,13 @@ def run(args) -> int:
     from harness.store import setup_store
 
     setup_store()
-    runs, problems = import_folder(args.folder, args.as_machine)
+    if args.as_machine:
+        from harness.adapters.base import UserError
+        from harness.workspace import segment_problem
+
+        if segment_problem(args.as_machine):
+            raise UserError(f"--as-machine: {segment_problem(args.as_machine)}")
+    runs, problems = import_folder(args.folder, args.as_machine, replace=args.replace)
     for problem in problems:
         print(f"harness: {problem}", file=sys.stderr)
     for run in runs:
