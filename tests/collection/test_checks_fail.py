@@ -57,7 +57,7 @@ def test_bad_runs_fail_with_clear_messages(tmp_path):
     result = subprocess.run(cmd + ["run", "-j", "2"], cwd=PROJECT_ROOT, capture_output=True, text=True,
                             timeout=600)
     assert result.returncode == 1, result.stdout + result.stderr
-    records = {p.parent.name: json.loads(p.read_text()) for p in home.glob("runs/m/head/**/run.json")}
+    records = {r["run"]: r for r in (json.loads(p.read_text()) for p in home.glob("runs/m/head/**/run.json"))}
     assert set(records) == {"beyond_critical", "wrong_expectation", "particle_lost", "fine"}
 
     critical = records["beyond_critical"]

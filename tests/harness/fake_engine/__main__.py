@@ -73,6 +73,8 @@ def main(argv):
             os.kill(os.getpid(), signal.SIGSEGV)
         elif name == "hang":
             time.sleep(60)
+        elif name == "sleep":
+            time.sleep(float(command["seconds"]))
         elif name == "error_exit0":
             log.write("ERROR: lost atoms but exiting with 0\n")
             log.close()

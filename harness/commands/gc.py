@@ -1,0 +1,30 @@
+"""``harness gc [--keep-builds N] [--dry-run]``: remove old run and build folders (never store rows)."""
+NAME = "gc"
+HELP = "remove run folders and builds of old revisions by a stated policy (store rows are kept)"
+
+
+def configure(parser):
+    parser.add_argument("--keep-builds", type=int, default=2, metavar="N",
+                        help="besides the current build, keep the N most recent builds of each target (default 2)")
+    parser.add_argument("--dry-run", action="store_true", help="only list what would be removed")
+    parser.add_argument("--all-machines", action="store_true",
+                        help="also collect folders of runs recorded under other machine names")
+
+
+def run(args) -> int:
+    from harness.adapters.base import UserError
+    from harness.store import setup_store
+
+    if args.keep_builds < 0:
+        raise UserError("--keep-builds must be at least 0")
+    setup_store()
+    from harness.gc import collect
+
+    result = collect(args.keep_builds, args.dry_run, None if args.all_machines else args.machine)
+    verb = "would remove" if args.dry_run else "removed"
+    for path in result.build_folders + result.run_folders:
+        print(f"{verb} {path}")
+    print(f"{verb} {len(result.run_folders)} run folders and {len(result.build_folders)} build folders, "
+          f"{result.bytes / 1e6:.1f} MB; the store keeps every run's record (policy: the current build and the "
+          f"{args.keep_builds} most recent other builds of each target keep their files)")
+    return 0
