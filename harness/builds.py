@@ -117,13 +117,14 @@ def current_build(target, machine_name: str):
 
     With a definition (``TargetDefinition``) the revision is resolved now and the result recorded with
     ``make_current``; with only a name (store-only targets, the dashboard) the recorded current build.
-    ``build``, ``run``, ``check``, ``status``, ``sweep``, ``list`` and the dashboard all ask this.
+    ``build``, ``run``, ``check``, ``status``, ``sweep``, ``list`` and the dashboard all ask this. A
+    revision given on the command line (``TARGET@REV``) names its build without making it current.
     """
     from harness.models import Build
 
     if isinstance(target, TargetDefinition):
         build = find_build(target, machine_name)
-        if build is not None:
+        if build is not None and not target.explicit_revision:
             make_current(build)
         return build
     return Build.objects.filter(target__name=target, machine__name=machine_name, current=True,
@@ -131,7 +132,8 @@ def current_build(target, machine_name: str):
 
 
 def build_target(target: TargetDefinition, machine_name: str, force: bool = False, log=None):
-    """Build ``target`` at its revision on this machine, or return the cached build; it becomes current.
+    """Build ``target`` at its revision on this machine, or return the cached build; it becomes current
+    unless the revision was given on the command line (``TARGET@REV``).
 
     ``log`` is a callable taking a line of progress text (default: nothing). Two processes building the
     same target and commit wait for each other (a lock per build folder) and build it once.
@@ -161,7 +163,8 @@ def build_target(target: TargetDefinition, machine_name: str, force: bool = Fals
             if force:
                 # a forced rebuild replaces the binary of this commit too: its results are outdated
                 build.runs.exclude(state=Run.State.OUTDATED).update(state=Run.State.OUTDATED, replaced=True)
-        make_current(build)
+        if not target.explicit_revision:
+            make_current(build)
         return build
     finally:
         lock.release()

@@ -244,6 +244,7 @@ def execute(spec: dict) -> dict:
     record["warning_count"] = len(scan.warnings)
     record["warnings"] = scan.warnings[:50]
     record["timing"] = adapter.read_timing(folder)
+    record["stepping_time"] = runrecord.stepping_time_of(record["timing"])
     _classify(record, code, timed_out, scan, float(spec.get("timeout") or 600))
     try:
         postprocess_run(spec, folder, record, adapter)

@@ -134,6 +134,9 @@ class Run(models.Model):
     started = models.DateTimeField(null=True, blank=True)
     finished = models.DateTimeField(null=True, blank=True)
     wall_time = models.FloatField(null=True, blank=True, help_text="s, engine process wall time")
+    stepping_time = models.FloatField(null=True, blank=True,
+                                      help_text="s, the engine's own time stepping (its loop time: no start-up, "
+                                                "no JIT compilation); what speed trends and comparisons use")
     timing = models.JSONField(default=dict, help_text="s per category: pair, neigh, comm, modify, output, other, total")
     warning_count = models.IntegerField(default=0)
     consistency = models.CharField(max_length=16, choices=Consistency.choices, blank=True, default="")

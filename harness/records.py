@@ -24,7 +24,7 @@ def _when(value):
     return datetime.fromisoformat(value) if isinstance(value, str) else value
 
 
-def store_record(record: dict):
+def store_record(record: dict, imported: bool = False):
     """Create or update the Run (and its machine, target, build, test case, series) a record describes."""
     from django.db import transaction
 
@@ -60,6 +60,7 @@ def store_record(record: dict):
             folder=record.get("folder", ""), command=record.get("command") or [],
             exit_code=record.get("exit_code"), started=_when(record.get("started")),
             finished=_when(record.get("finished")), wall_time=record.get("wall_time"),
+            stepping_time=record.get("stepping_time", runrecord.stepping_time_of(record.get("timing"))),
             timing=record.get("timing") or {}, warning_count=record.get("warning_count", 0),
             consistency="", consistency_min=None, reference_run=None, replaced=False)
         run, _ = Run.objects.update_or_create(machine=machine, build=build, testcase=testcase,
@@ -68,7 +69,7 @@ def store_record(record: dict):
         (Run.objects.filter(machine=machine, build=build, testcase=testcase, name=record["run"])
          .exclude(pk=run.pk).exclude(state=Run.State.OUTDATED, replaced=True)
          .update(state=Run.State.OUTDATED, replaced=True))
-        if not build.current and run.state != Run.State.OUTDATED:
+        if imported and not build.current and run.state != Run.State.OUTDATED:
             # a record of a build that is not its target's current one (imported from an older revision)
             run.state = Run.State.OUTDATED
             run.save(update_fields=["state"])
@@ -108,10 +109,10 @@ def read_record(path: Path) -> dict:
 
 def _comparable_state(state: str, run=None) -> str:
     """States that mean the same result: a checked run was post-processed; an outdated one what it was."""
-    from harness.rules import restored_state
+    from harness.rules import effective_state
 
-    if state == "outdated" and run is not None:
-        state = restored_state(run)
+    if run is not None:
+        state = effective_state(run)
     return "post_processed" if state == "consistency_checked" else state
 
 
@@ -173,5 +174,5 @@ def import_folder(folder: Path, machine: str | None = None, replace: bool = Fals
         if differs and not replace:
             problems.append(f"{path}: conflict: {differs}; not imported (--replace to replace the stored run)")
             continue
-        runs.append(store_record(record))
+        runs.append(store_record(record, imported=True))
     return runs, problems

@@ -32,6 +32,14 @@ def restored_state(run) -> str:
     return "post_processed"
 
 
+def effective_state(run) -> str:
+    """The state a run has for its own build: an outdated run that no newer content replaced is outdated only
+    because another build of its target is current, and is still what it ended as for its own build."""
+    if run.state == "outdated" and not run.replaced:
+        return restored_state(run)
+    return run.state
+
+
 def reference_candidates(run, reference_target: str):
     """Successful runs of ``reference_target`` that may serve as ``run``'s reference, best first.
 

@@ -27,7 +27,7 @@ from harness import execute as ex
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
 from harness.builds import build_target
-from harness.rules import SUCCESS_STATES
+from harness.rules import SUCCESS_STATES, effective_state
 from harness.targets import TargetDefinition
 from harness.testcases import CONFIG_RUN, RunEntry, TestCaseSpec, discover, matches
 from harness.workspace import workspace
@@ -47,7 +47,7 @@ class RunOptions:
 
 @dataclass
 class Task:
-    key: tuple[str, str, str]          # (target, test case path, run name)
+    key: tuple[str, str, str, str]     # (target, test case path, run name, build commit)
     spec: dict
     depends_on: tuple | None = None
     dependency_folder: str | None = None
@@ -142,9 +142,10 @@ def make_spec(target: TargetDefinition, build_info: dict, adapter, machine: str,
 def _needs_run(existing, options: RunOptions) -> bool:
     if existing is None or options.rerun_all:
         return True
-    if existing.state in ("not_executed", "outdated"):
+    state = effective_state(existing)
+    if state in ("not_executed", "outdated"):
         return True
-    if existing.state == "failed":
+    if state == "failed":
         return options.rerun_failed or existing.failure_reason in ("interrupted", "dependency")
     return False
 
@@ -164,7 +165,7 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
     tasks: dict[tuple, Task] = {}
 
     def add(testcase: TestCaseSpec, entry: RunEntry, force: bool = False) -> None:
-        key = (target.name, testcase.path, entry.name)
+        key = (target.name, testcase.path, entry.name, build.commit)
         if key in tasks:
             return
         spec = make_spec(target, info, adapter, options.machine, testcase, entry)
@@ -182,9 +183,9 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
         dependency = testcase.run(entry.depends_on) if entry.depends_on else None
         task = Task(key, spec)
         if dependency is not None:
-            dep_key = (target.name, testcase.path, dependency.name)
+            dep_key = (target.name, testcase.path, dependency.name, build.commit)
             dep_previous = existing.get((testcase.path, dependency.name, testcase.content_hash(dependency.name)))
-            if dep_key in tasks or _needs_run(dep_previous, options) or dep_previous.state not in SUCCESS_STATES:
+            if dep_key in tasks or _needs_run(dep_previous, options) or effective_state(dep_previous) not in SUCCESS_STATES:
                 add(testcase, dependency, force=True)
                 task.depends_on = dep_key
             else:
@@ -293,6 +294,10 @@ def _release(task: Task) -> None:
         task.lock.release()
 
 
+def _record_key(record: dict) -> tuple:
+    return (record["target"], record["testcase"], record["run"], (record.get("build") or {}).get("commit", ""))
+
+
 def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out=None) -> None:
     """Execute the planned runs and store each record as it comes back.
 
@@ -317,7 +322,7 @@ def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out
             if task is not None:
                 _release(task)
         report.records.append(record)
-        results[tuple((record["target"], record["testcase"], record["run"]))] = record
+        results[_record_key(record)] = record
         done_count += 1
         _progress(done_count, total, record, out)
 
@@ -449,11 +454,13 @@ def cost_per_particle_step(timing: dict) -> float | None:
 
 
 def summary_table(records: list[dict]) -> str:
-    rows = [("target", "test case", "run", "state", "reason", "wall s", "us/particle-step")]
+    rows = [("target", "commit", "test case", "run", "state", "reason", "wall s", "stepping s", "us/particle-step")]
     for r in sorted(records, key=lambda r: (r["target"], r["testcase"], r["run"])):
         cost = cost_per_particle_step(r.get("timing"))
-        rows.append((r["target"], r["testcase"], r["run"], r["state"], r["failure_reason"] or "",
+        rows.append((r["target"], (r.get("build") or {}).get("commit", "")[:10], r["testcase"], r["run"], r["state"],
+                     r["failure_reason"] or "",
                      f"{r['wall_time']:.2f}" if r.get("wall_time") is not None else "-",
+                     f"{r['stepping_time']:.3f}" if r.get("stepping_time") is not None else "-",
                      f"{cost:.3f}" if cost is not None else "-"))
     return format_table(rows)
 

@@ -28,8 +28,10 @@ SERIES_KINDS = ("thermo", "plot", "vtk", "textfile")
 
 @dataclass
 class RunRecord:
-    """One run. Times are ISO 8601 strings (UTC); ``wall_time`` in s (engine process); ``timing`` in s
-    per category (pair, neigh, comm, modify, output, other, total, and what the engine adds)."""
+    """One run. Times are ISO 8601 strings (UTC); ``wall_time`` in s (engine process, start-up and JIT
+    compilation included); ``stepping_time`` in s (the engine's own loop time, ``stepping_time_of``);
+    ``timing`` in s per category (pair, neigh, comm, modify, output, other, total, and what the engine
+    adds)."""
 
     machine: str
     target: str
@@ -49,6 +51,7 @@ class RunRecord:
     started: str | None = None
     finished: str | None = None
     wall_time: float | None = None
+    stepping_time: float | None = None
     timing: dict = field(default_factory=dict)
     warning_count: int = 0
     warnings: list = field(default_factory=list)
@@ -73,6 +76,13 @@ _TYPES = {f.name: f.type for f in fields(RunRecord)}
 _REQUIRED = ("machine", "target", "testcase", "run", "state")
 _KINDS = {"str": (str,), "dict": (dict,), "list": (list,), "int": (int,), "int | None": (int, type(None)),
           "str | None": (str, type(None)), "float | None": (int, float, type(None))}
+
+
+def stepping_time_of(timing: dict) -> float | None:
+    """The engine's own time stepping in s: the loop time its adapter reports as ``total`` (the bundled
+    engine's timed loop, LIGGGHTS' and LAMMPS' summed "Loop time"); None when the engine reported none."""
+    value = (timing or {}).get("total")
+    return float(value) if isinstance(value, (int, float)) and value > 0 and math.isfinite(value) else None
 
 
 def finite(value):

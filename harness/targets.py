@@ -83,6 +83,8 @@ class TargetDefinition:
     executable: str | None = None
     thermo_columns: dict = field(default_factory=dict)
     mpi_launcher: list[str] = field(default_factory=lambda: ["mpirun"])
+    #: the revision was given on the command line (``TARGET@REV``): its build does not become the current one
+    explicit_revision: bool = False
 
     @property
     def definition_hash(self) -> str:

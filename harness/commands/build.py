@@ -6,7 +6,7 @@ HELP = "build targets at their revisions (cached; --force rebuilds)"
 
 
 def configure(parser):
-    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names (default: all)")
+    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names, TARGET@REV (any git revision) or TARGET@A..B (default: all)")
     parser.add_argument("--force", action="store_true", help="rebuild even if a complete build is cached")
 
 
@@ -14,10 +14,10 @@ def run(args) -> int:
     from harness.adapters.base import UserError
     from harness.builds import build_target
     from harness.store import setup_store
-    from harness.targets import select_targets
+    from harness.revisions import expand
 
     setup_store()
-    targets, problems = select_targets(args.targets, args.targets_dir)
+    targets, problems = expand(args.targets, args.targets_dir)
     for problem in problems:
         print(f"harness: {problem}", file=sys.stderr)
     status = 1 if problems else 0

@@ -6,7 +6,7 @@ HELP = "check version consistency of runs against the reference target; write JU
 
 
 def configure(parser):
-    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names (default: all)")
+    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names, TARGET@REV (any git revision) or TARGET@A..B (default: all)")
     parser.add_argument("--junit", metavar="FILE", help="write JUnit XML (Jenkins) to FILE")
 
 
@@ -14,10 +14,10 @@ def run(args) -> int:
     from harness.check import check_targets, write_junit
     from harness.runner import format_table
     from harness.store import setup_store
-    from harness.targets import select_targets
+    from harness.revisions import expand
 
     setup_store()
-    targets, problems = select_targets(args.targets, args.targets_dir)
+    targets, problems = expand(args.targets, args.targets_dir)
     report = check_targets(targets, args.machine)
     report.problems[:0] = problems
     for problem in report.problems:

@@ -7,7 +7,7 @@ HELP = "build targets if needed and run their test cases"
 
 def add_selection(parser, what: str = "runs"):
     """The options that choose what to run, shared with ``harness sweep``."""
-    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names (default: all)")
+    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names, TARGET@REV (any git revision) or TARGET@A..B (default: all)")
     parser.add_argument("-k", dest="pattern", metavar="PATTERN",
                         help=f"only {what} whose 'testcase/run' contains PATTERN (or matches it as a glob)")
     parser.add_argument("-j", dest="jobs", type=int, default=1, metavar="N", help="runs in parallel (default 1)")
@@ -17,6 +17,8 @@ def add_selection(parser, what: str = "runs"):
 
 def configure(parser):
     add_selection(parser)
+    parser.add_argument("--steps", type=int, metavar="N",
+                        help="with TARGET@A..B: N commits spread evenly over the range (default: every commit)")
     parser.add_argument("--rerun-failed", action="store_true", help="run failed runs again")
     parser.add_argument("--all", dest="rerun_all", action="store_true",
                         help="run everything again, also runs that already succeeded with this build")
@@ -31,10 +33,10 @@ def configure(parser):
 def run(args) -> int:
     from harness.runner import RunOptions, run_targets, summary_table
     from harness.store import setup_store
-    from harness.targets import select_targets
+    from harness.revisions import expand
 
     setup_store()
-    targets, problems = select_targets(args.targets, args.targets_dir)
+    targets, problems = expand(args.targets, args.targets_dir, args.steps)
     if args.targets and not args.no_reference:
         targets = with_references(targets)
     if args.jobs < 1:
