@@ -1,20 +1,48 @@
 """``python -m engine -in SCRIPT [-var NAME VALUE]... [-log FILE]`` (console script ``dem``).
 
 Exit codes: 0 success, 2 bad input, 1 runtime failure. Errors are one ``ERROR: ...`` line on stderr and
-at the end of the log; timing.json and all outputs written so far are left valid.
+at the end of the log; timing.json and all outputs written so far are left valid. No failure, expected or
+not, reaches the user as a Python traceback: the specific cases are reported where they arise, and `run`
+keeps a last-resort guard that turns anything else into one ERROR line naming the exception.
 """
 from __future__ import annotations
 
+import os
 import sys
+import traceback
+
+from .errors import InputError, RunFailure
+from .log import Log, stderr_line
 
 USAGE = "usage: dem -in SCRIPT [-var NAME VALUE]... [-log FILE]"
 
+HELP = f"""{USAGE}
+       python -m engine -in SCRIPT [-var NAME VALUE]... [-log FILE]
+
+Run a DEM scene script (a JSON list of commands: create, get, set, fix, unfix, run) in the current folder.
+
+options:
+  -in, -i SCRIPT        the scene script (JSON, UTF-8)
+  -var, -v NAME VALUE   fill ${{NAME}} in the script with VALUE (repeatable)
+  -log, -l FILE         the log file (default log.dem); also echoed to stdout
+  -h, --help            show this text and exit
+
+outputs (current folder): the log, thermo.csv, print files, VTK dumps, restart files, timing.json
+
+exit codes: 0 success; 2 bad input (script, fields, variables, paths); 1 the run failed (non-finite values,
+critical time step exceeded in strict mode, every particle lost, an output that cannot be written).
+A failure is one line 'ERROR: ...' on stderr and the last line of the log. See engine/README.md.
+"""
+
 
 def parse_args(argv):
+    """(script, log, variables), or None when help was asked for; ValueError on a bad command line."""
     script, log, variables = None, "log.dem", {}
     i = 0
     while i < len(argv):
         flag = argv[i]
+        if flag in ("-h", "-help", "--help"):
+            return None
         if flag in ("-in", "-i") and i + 1 < len(argv):
             script = argv[i + 1]
             i += 2
@@ -31,36 +59,87 @@ def parse_args(argv):
     return script, log, variables
 
 
+def _unexpected(exc: BaseException) -> tuple[int, str]:
+    """(exit code, message) for an exception no specific handler turned into an InputError or RunFailure.
+
+    The message names the exception type and, for a bug, the innermost engine source line: enough to start
+    looking, without a traceback for the user.
+    """
+    detail = str(exc).splitlines()[0] if str(exc) else ""
+    if isinstance(exc, MemoryError):
+        return 1, f"out of memory ({type(exc).__name__}{': ' + detail if detail else ''}); fewer particles, or a " \
+                  "machine with more memory"
+    if isinstance(exc, RecursionError):
+        return 2, f"input nested too deeply to process ({type(exc).__name__})"
+    if isinstance(exc, OSError):
+        path = f" {exc.filename}" if exc.filename else ""
+        return 1, f"file system error{path}: {exc.strerror or exc} ({type(exc).__name__})"
+    frames = traceback.extract_tb(exc.__traceback__)
+    where = next((f"{os.path.basename(f.filename)}:{f.lineno}" for f in reversed(frames)
+                  if os.sep + "engine" + os.sep in f.filename), None)
+    return 1, (f"internal error {type(exc).__name__}{': ' + detail if detail else ''}"
+               f"{f' (at {where})' if where else ''}; please report it with the script")
+
+
 def run(script: str, log_path: str | None, variables: dict, echo: bool = True) -> int:
     """Run a script in the current folder; returns the exit code."""
-    from .errors import InputError, RunFailure
-    from .script import load_script, substitute
-    from .simulation import Log, Simulation
-    from .writers import write_timing
-
-    log = Log(log_path, echo=echo)
-    sim = Simulation(log)
+    log = sim = None
     code = 0
+    message = None
+    where = script  # the command being executed, for messages of unexpected failures
     try:
+        log = Log(log_path, echo=echo)
+        import numpy as np
+
+        from .script import load_script, substitute
+        from .simulation import Simulation
+
+        # the guards report non-finite values with step and particle; numpy's own overflow warnings would
+        # only add lines to stderr
+        np.seterr(all="ignore")
+        sim = Simulation(log)
         commands = load_script(script, variables)
         for index, raw in enumerate(commands, start=1):
             where = f"{script}: command {index}"
             if not isinstance(raw, dict) or "command" not in raw:
                 raise InputError(f"{where}: must be an object with a 'command' field")
-            sim.execute(substitute(raw, variables, f"{where} ({raw.get('command')})"), index, script)
-        log.info(f"total: {sim.timing['steps']} steps, {len(sim.pid)} particles, {log.warnings} warning(s)")
+            where = f"{where} ({raw.get('command')})"
+            sim.execute(substitute(raw, variables, where), index, script)
+        where = script
+        log.info(sim.total_line())
     except (InputError, RunFailure) as exc:
-        code = exc.exit_code
-        message = f"ERROR: {exc}"
-        log.info(message)
-        if not echo or log.handle is None:
-            pass
-        print(message, file=sys.stderr, flush=True)
+        code, message = exc.exit_code, str(exc)
+    except Exception as exc:  # noqa: BLE001 - the last-resort guard: one ERROR line instead of a traceback
+        code, text = _unexpected(exc)
+        message = f"{where}: {text}"
     finally:
-        sim.close()
-        try:
-            write_timing("timing.json", sim.timing_record())
-        finally:
+        if sim is not None:
+            sim.close()
+            try:
+                from .writers import write_timing
+
+                write_timing("timing.json", sim.timing_record())
+            except RunFailure as exc:
+                if message is None:  # the first failure is the one to report
+                    code, message = exc.exit_code, str(exc)
+            except Exception as exc:  # noqa: BLE001
+                if message is None:
+                    code, text = _unexpected(exc)
+                    message = f"{script}: {text}"
+        if message is not None:
+            line = f"ERROR: {message}"
+            if log is not None and log.handle is not None:
+                try:
+                    log.info(line)
+                except RunFailure:
+                    pass  # the log broke at its last line (echoed already); stderr still gets it
+            elif echo:
+                try:
+                    print(line, flush=True)  # stdout shows what the log would have ended with
+                except (OSError, ValueError):
+                    pass
+            stderr_line(line)
+        if log is not None:
             log.close()
     return code
 
@@ -68,11 +147,14 @@ def run(script: str, log_path: str | None, variables: dict, echo: bool = True) -
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     try:
-        script, log, variables = parse_args(argv)
+        parsed = parse_args(argv)
     except ValueError as exc:
-        print(f"ERROR: {exc}", file=sys.stderr)
+        stderr_line(f"ERROR: {exc}")
         return 2
-    return run(script, log, variables)
+    if parsed is None:
+        print(HELP, end="")
+        return 0
+    return run(*parsed)
 
 
 if __name__ == "__main__":

@@ -8,6 +8,12 @@ class InputError(Exception):
 
 
 class RunFailure(Exception):
-    """The simulation itself failed (non-finite values, time step above critical in strict mode): exit code 1."""
+    """The simulation itself failed (non-finite values, time step above critical in strict mode, an output that
+    cannot be written): exit code 1."""
 
     exit_code = 1
+
+
+def output_failure(what: str, path, exc: OSError) -> RunFailure:
+    """A file the run writes (thermo, print, dump, restart, timing) could not be written: names file and cause."""
+    return RunFailure(f"cannot write {what} {path}: {exc.strerror or exc}")

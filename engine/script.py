@@ -14,6 +14,9 @@ from pathlib import Path
 from .errors import InputError
 
 COMMANDS = ("create", "get", "set", "fix", "unfix", "run")
+#: largest integer field (step counts, intervals, seeds): the step loop counts in int64, and 2**53 keeps every
+#: step exactly representable as the double a thermo file prints
+MAX_INTEGER = 2 ** 53
 _VARIABLE = re.compile(r"\$\{([A-Za-z_][A-Za-z0-9_]*)\}")
 
 
@@ -46,19 +49,69 @@ def substitute(value, variables: dict[str, str], where: str):
     return value
 
 
+#: deepest nesting of lists and objects a script may have; real scripts need 4 (list, command, region, list)
+MAX_NESTING = 32
+
+
+def _depth(value) -> int:
+    """Nesting depth of parsed JSON, without recursion (a deep value must not exhaust the Python stack)."""
+    deepest, stack = 0, [(value, 0)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, (list, dict)):
+            depth += 1
+            deepest = max(deepest, depth)
+            if depth > MAX_NESTING:
+                break
+            stack.extend((v, depth) for v in (item.values() if isinstance(item, dict) else item))
+    return deepest
+
+
 def load_script(path: str, variables: dict[str, str]) -> list[dict]:
     """The command list of a script file (variables not yet filled in; that happens per command)."""
     try:
-        text = Path(path).read_text()
+        data = Path(path).read_bytes()
     except OSError as exc:
         raise InputError(f"{path}: cannot read input script ({exc.strerror or exc})") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a UTF-8 text file (byte 0x{data[exc.start]:02x} at offset {exc.start}); "
+                         "scripts are JSON, which is UTF-8") from None
     try:
         commands = json.loads(text)
     except json.JSONDecodeError as exc:
         raise InputError(f"{path}: not valid JSON: {exc.msg} at line {exc.lineno} column {exc.colno}") from None
+    except RecursionError:
+        raise InputError(f"{path}: lists or objects nest deeper than the JSON parser allows "
+                         f"(a script nests at most {MAX_NESTING} levels)") from None
+    except ValueError as exc:  # e.g. an integer literal longer than Python's 4300-digit conversion limit
+        raise InputError(f"{path}: not valid JSON: {exc}") from None
+    if _depth(commands) > MAX_NESTING:
+        raise InputError(f"{path}: lists or objects nest deeper than {MAX_NESTING} levels")
     if not isinstance(commands, list):
         raise InputError(f"{path}: the script must be a JSON list of command objects")
     return commands
+
+
+def _real(value):
+    """value as a finite float, or None when it is not a number or not representable (10**400, NaN, inf)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        value = float(value)
+    except OverflowError:
+        return None
+    return value if math.isfinite(value) else None
+
+
+def _shown(value) -> str:
+    """A field value for an error message, kept short (a 5000-digit number must not make a 5000-char line)."""
+    try:
+        text = json.dumps(value)
+    except (ValueError, RecursionError):
+        text = repr(value)
+    return text if len(text) <= 80 else text[:60] + "..." + text[-10:]
 
 
 class Fields:
@@ -88,9 +141,10 @@ class Fields:
         value = self._get(name, default, required and default is None)
         if value is None:
             return None
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise self.error(name, f"must be a number, got {json.dumps(value)}")
-        value = float(value)
+        number = _real(value)
+        if number is None:
+            raise self.error(name, f"must be a number (finite, within double precision), got {_shown(value)}")
+        value = number
         if positive and value <= 0:
             raise self.error(name, f"must be > 0, got {value:g}")
         if minimum is not None and (value <= minimum if open_minimum else value < minimum):
@@ -99,7 +153,7 @@ class Fields:
             raise self.error(name, f"must be <= {maximum:g}, got {value:g}")
         return value
 
-    def integer(self, name, default=None, required=False, minimum=None):
+    def integer(self, name, default=None, required=False, minimum=None, maximum=MAX_INTEGER):
         value = self._get(name, default, required and default is None)
         if value is None:
             return None
@@ -107,9 +161,11 @@ class Fields:
             if isinstance(value, float) and value.is_integer():
                 value = int(value)
             else:
-                raise self.error(name, f"must be an integer, got {json.dumps(value)}")
+                raise self.error(name, f"must be an integer, got {_shown(value)}")
         if minimum is not None and value < minimum:
-            raise self.error(name, f"must be >= {minimum}, got {value}")
+            raise self.error(name, f"must be >= {minimum}, got {_shown(value)}")
+        if maximum is not None and value > maximum:
+            raise self.error(name, f"must be <= {maximum}, got {_shown(value)}")
         return value
 
     def string(self, name, default=None, required=False, choices=None):
@@ -117,7 +173,7 @@ class Fields:
         if value is None:
             return None
         if not isinstance(value, str):
-            raise self.error(name, f"must be a string, got {json.dumps(value)}")
+            raise self.error(name, f"must be a string, got {_shown(value)}")
         if choices is not None and value not in choices:
             raise self.error(name, f"must be one of {', '.join(choices)}, got '{value}'")
         return value
@@ -125,25 +181,25 @@ class Fields:
     def boolean(self, name, default=None, required=False):
         value = self._get(name, default, required and default is None)
         if not isinstance(value, bool):
-            raise self.error(name, f"must be true or false, got {json.dumps(value)}")
+            raise self.error(name, f"must be true or false, got {_shown(value)}")
         return value
 
     def vector(self, name, length=3, default=None, required=False):
         value = self._get(name, default, required and default is None)
         if value is None:
             return None
-        if (not isinstance(value, list) or len(value) != length
-                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-                           for v in value)):
-            raise self.error(name, f"must be a list of {length} numbers, got {json.dumps(value)}")
-        return [float(v) for v in value]
+        numbers = [_real(v) for v in value] if isinstance(value, list) else []
+        if len(numbers) != length or any(v is None for v in numbers):
+            raise self.error(name, f"must be a list of {length} numbers (finite, within double precision), got "
+                             f"{_shown(value)}")
+        return numbers
 
     def strings(self, name, default=None, required=False):
         value = self._get(name, default, required and default is None)
         if value is None:
             return None
         if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise self.error(name, f"must be a list of strings, got {json.dumps(value)}")
+            raise self.error(name, f"must be a list of strings, got {_shown(value)}")
         return value
 
     def mapping(self, name, default=None, required=False):
@@ -151,7 +207,7 @@ class Fields:
         if value is None:
             return None
         if not isinstance(value, dict):
-            raise self.error(name, f"must be an object, got {json.dumps(value)}")
+            raise self.error(name, f"must be an object, got {_shown(value)}")
         return value
 
     def raw(self, name, default=None, required=False):

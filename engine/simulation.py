@@ -14,11 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
+from . import memory
 from .contact_laws import effective_youngs_modulus
-from .errors import InputError, RunFailure
+from .errors import InputError, RunFailure, output_failure
 from .kernels import COHESION_MODELS, NORMAL_MODELS, ROLLING_MODELS, TANGENTIAL_MODELS, Combination, build_kernel
+from .log import Log  # noqa: F401 - part of this module's interface (tests build a Simulation on a Log)
 from .neighbor import overlap_statistics
-from .scene import lattice_points, parameter_table, random_packing
+from .scene import lattice_points, parameter_table, random_packing, region_bounds
 from .script import Fields
 from .writers import CsvSeries, write_vtp
 
@@ -33,30 +35,16 @@ THERMO_FIRST = ["step", "time", "atoms", "ke", "rke"]
 RESTART_FORMAT = 2
 #: overlaps above this fraction of the smaller radius are reported (issue 2)
 OVERLAP_WARN_RATIO = 0.1
-
-
-class Log:
-    """The log file (and stdout): commands echoed, WARNING lines, run summaries, a final ERROR line."""
-
-    def __init__(self, path: str | None, echo: bool = True):
-        self.handle = open(path, "w", buffering=1) if path else None
-        self.echo = echo
-        self.warnings = 0
-
-    def info(self, text: str):
-        if self.handle:
-            self.handle.write(text + "\n")
-            self.handle.flush()
-        if self.echo:
-            print(text, flush=True)
-
-    def warning(self, text: str):
-        self.warnings += 1
-        self.info("WARNING: " + text)
-
-    def close(self):
-        if self.handle:
-            self.handle.close()
+#: the critical time step is re-checked with the current velocities every this many steps (LIGGGHTS' fix
+#: check/timestep/gran re-checks every N steps too: the Hertz time falls as particles speed up)
+TIMESTEP_CHECK_EVERY = 1000
+#: largest material type number (the pair parameter table has MAX^2 rows of 7 doubles: 56 MB)
+MAX_MATERIAL_TYPE = 1000
+#: arrays with one entry (or row) per particle, in the order of _state(); their bytes per particle decide
+#: whether a create fits in memory
+PARTICLE_ARRAYS = ("x", "v", "f", "omega", "torque", "radius", "mass", "inv_mass", "inv_inertia", "ptype", "pid",
+                   "x_build")
+STATE_ARRAYS = PARTICLE_ARRAYS + ("nbr_start", "nbr_j", "pair_hist", "wall_hist")
 
 
 def check_quantity(name: str) -> bool:
@@ -85,6 +73,7 @@ class Simulation:
         self.active: list[str] = []
         self.timestep_fraction = 0.2
         self.timestep_strict = False
+        self.timestep_every = TIMESTEP_CHECK_EVERY
         self.thermo_every = 0
         self.thermo_columns = list(THERMO_FIRST)
         self.thermo_file = "thermo.csv"
@@ -144,6 +133,8 @@ class Simulation:
         hi = np.array(fields.vector("hi", required=True))
         if np.any(hi <= lo):
             raise fields.error("hi", "must be greater than 'lo' on every axis")
+        if not np.all(np.isfinite(hi - lo)):
+            raise fields.error("hi", "gives a domain extent hi - lo beyond double precision")
         periodic = fields.raw("periodic", [False, False, False])
         if not (isinstance(periodic, list) and len(periodic) == 3 and all(isinstance(p, bool) for p in periodic)):
             raise fields.error("periodic", "must be a list of 3 booleans")
@@ -157,7 +148,8 @@ class Simulation:
         return t
 
     def create_material(self, fields: Fields):
-        t = fields.integer("type", required=True, minimum=1)
+        # the pair parameter table holds (largest type)^2 entries: type numbers are labels, not a count
+        t = fields.integer("type", required=True, minimum=1, maximum=MAX_MATERIAL_TYPE)
         y = fields.number("youngs_modulus", required=True, positive=True)
         nu = fields.number("poisson_ratio", required=True, minimum=0.0, maximum=0.5)
         rho = fields.number("density", required=True, positive=True)
@@ -224,12 +216,34 @@ class Simulation:
         if fresh_history:
             self.wall_hist = np.zeros((0, 0, 0))
 
-    def _add_particles(self, t: int, positions, radii, velocity, omega):
+    def _particle_bytes(self) -> int:
+        """Bytes one particle holds in the state arrays (and its wall history row and neighbor list start)."""
+        per = sum(getattr(self, name).itemsize * int(np.prod(getattr(self, name).shape[1:]))
+                  for name in PARTICLE_ARRAYS)
+        return per + self.nbr_start.itemsize + 8 * 6 * len(self.walls)  # wall history: up to 6 doubles per wall
+
+    def _check_memory(self, fields: Fields, field: str, new: int, what: str, **temporaries):
+        """Refuse a create that cannot fit, before anything is allocated: more bytes than the machine has
+        available (memory.available_bytes), or more particles than int32 neighbor indices address."""
+        need = memory.creation_bytes(new, len(self.pid), self._particle_bytes(), **temporaries)
+        available = memory.available_bytes()
+        if available is not None and need > available:
+            raise fields.error(field, f"{what} {new:.3g} particles, which need about {memory.human(need)} of "
+                               f"memory ({self._particle_bytes()} B per particle in the state, plus the "
+                               f"temporaries of the create); {memory.human(available)} are available")
+        if len(self.pid) + new > memory.MAX_PARTICLES:
+            raise fields.error(field, f"{what} {new:.3g} particles; the engine holds at most "
+                               f"{memory.MAX_PARTICLES} (32-bit neighbor indices)")
+
+    def _add_particles(self, t: int, positions, radii, velocity, omega, fields: Fields | None = None):
         n = len(positions)
         if n == 0:
             return
         y, nu, rho = self.materials[t]
         mass = rho * 4.0 / 3.0 * math.pi * radii ** 3
+        if fields is not None:
+            self._check_particle_values(fields, t, radii, mass, np.asarray(velocity, float),
+                                        np.asarray(omega, float))
         self.x = np.ascontiguousarray(np.vstack([self.x, positions]))
         self.v = np.vstack([self.v, np.tile(velocity, (n, 1))])
         self.f = np.vstack([self.f, np.zeros((n, 3))])
@@ -244,6 +258,27 @@ class Simulation:
         self.x_build = np.vstack([self.x_build, positions])
         self.next_id += n
         self.dirty = True
+
+    def _check_particle_values(self, fields: Fields, t: int, radii, mass, velocity, omega):
+        """Values the integrator divides by or squares must be finite doubles: mass, 1/m, 1/I (I = 0.4 m r^2),
+        the kinetic energies 0.5 m v^2 and 0.5 I w^2 (radius 1e-200 m, density 1e-300 kg/m^3 or a speed of
+        1e200 m/s each overflow one of them and would poison the run with inf and nan)."""
+        radius_field = "radius" if fields.has("radius") or not fields.has("radius_min") else "radius_min"
+        inertia = 0.4 * mass * radii ** 2
+        with np.errstate(all="ignore"):
+            bad_mass = ~(np.isfinite(mass) & (mass > 0) & np.isfinite(1.0 / mass) & (inertia > 0)
+                         & np.isfinite(1.0 / inertia))
+            if bad_mass.any():
+                k = int(np.nonzero(bad_mass)[0][0])
+                raise fields.error(radius_field, f"{radii[k]:g} m with material type {t} (density "
+                                   f"{self.materials[t][2]:g} kg/m^3) gives a mass {mass[k]:.3g} kg whose "
+                                   "inverse or inverse moment of inertia is not a finite double")
+            for name, inert, value, energy in (("velocity", mass, velocity, "kinetic"),
+                                               ("omega", inertia, omega, "rotational")):
+                e = 0.5 * inert * float(np.dot(value, value))
+                if not np.all(np.isfinite(e)):
+                    raise fields.error(name, f"{value.tolist()} gives a {energy} energy that is not a finite "
+                                       "double")
 
     def _radii(self, fields: Fields, count: int, rng=None) -> np.ndarray:
         if fields.has("radius"):
@@ -271,6 +306,9 @@ class Simulation:
             if out["z"][1] <= out["z"][0]:
                 raise sub.error("z", "must be [z_low, z_high] with z_high > z_low")
         sub.finish()
+        lo, hi = region_bounds(out)
+        if not np.all(np.isfinite(hi - lo)):
+            raise fields.error("region", "has an extent beyond double precision")
         return out
 
     def create_particle(self, fields: Fields):
@@ -278,7 +316,7 @@ class Simulation:
         r = fields.number("radius", required=True, positive=True)
         position = fields.vector("position", required=True)
         self._add_particles(t, np.array([position]), np.array([r]), fields.vector("velocity", default=[0, 0, 0]),
-                            fields.vector("omega", default=[0, 0, 0]))
+                            fields.vector("omega", default=[0, 0, 0]), fields)
 
     def create_lattice(self, fields: Fields):
         t = self._type(fields)
@@ -287,9 +325,12 @@ class Simulation:
         if spacing < 2 * r:
             self.log.warning(f"{fields.where}: lattice spacing {spacing:g} m < 2 radius: neighbors start "
                              f"with an overlap of {2 * r - spacing:g} m")
-        points = lattice_points(self._region(fields), spacing, r)
+        region = self._region(fields)
+        sites = memory.lattice_sites(*region_bounds(region), spacing)
+        self._check_memory(fields, "spacing", sites, "gives a lattice of up to", grid_sites=sites)
+        points = lattice_points(region, spacing, r)
         self._add_particles(t, points, np.full(len(points), r), fields.vector("velocity", default=[0, 0, 0]),
-                            fields.vector("omega", default=[0, 0, 0]))
+                            fields.vector("omega", default=[0, 0, 0]), fields)
         self.log.info(f"created {len(points)} particles on a lattice")
 
     def create_random_packing(self, fields: Fields):
@@ -298,6 +339,7 @@ class Simulation:
         seed = fields.integer("seed", required=True, minimum=0)
         attempts = fields.integer("max_attempts", 200, minimum=1)
         region = self._region(fields)
+        self._check_memory(fields, "count", count, "asks for", attempts=attempts)
         rng = np.random.Generator(np.random.PCG64([seed, 1]))
         radii = self._radii(fields, count, rng)
         points = random_packing(region, radii, seed, self.x, self.radius, attempts)
@@ -305,7 +347,7 @@ class Simulation:
             raise RunFailure(f"{fields.where}: placed only {len(points)} of {count} particles without overlap "
                              f"in {attempts} attempts each; enlarge the region or lower 'count'")
         self._add_particles(t, points, radii, fields.vector("velocity", default=[0, 0, 0]),
-                            fields.vector("omega", default=[0, 0, 0]))
+                            fields.vector("omega", default=[0, 0, 0]), fields)
         self.log.info(f"created {len(points)} particles by random packing (seed {seed})")
 
     def create_modifier(self, fields: Fields):
@@ -381,12 +423,19 @@ class Simulation:
         elif prop == "timestep_check":
             self.timestep_fraction = fields.number("fraction", self.timestep_fraction, positive=True)
             self.timestep_strict = fields.boolean("strict", self.timestep_strict)
+            self.timestep_every = fields.integer("every", self.timestep_every, minimum=0)
         elif prop == "restart":
             self.read_restart(fields.string("file", required=True), fields)
         elif prop == "velocity":
             value = fields.vector("value", required=True)
             t = fields.integer("type", None, minimum=1)
             mask = np.ones(len(self.pid), dtype=bool) if t is None else self.ptype == t - 1
+            if mask.any():
+                heaviest = float(self.mass[mask].max())
+                with np.errstate(all="ignore"):
+                    energy = 0.5 * heaviest * float(np.dot(value, value))
+                if not math.isfinite(energy):
+                    raise fields.error("value", f"{value} gives a kinetic energy that is not a finite double")
             self.v[mask] = value
             self.dirty = True
 
@@ -467,14 +516,19 @@ class Simulation:
 
         t_R = min_i pi r sqrt(rho/G) / (0.1631 nu + 0.8766), G = Y / (2 (1+nu));
         t_H = min_i 2.87 (m^2 / (R Y*^2 v))^(1/5) with m the particle mass, R = r/2, Y* the largest over the
-        types it can touch, v = max(2 v_max, v_max + v_wall_max); infinite when v = 0.
+        types it can touch (particle types present and wall types), v = max(2 v_max, v_max + v_wall_max) with
+        the plane walls' whole speed; infinite when v = 0. LIGGGHTS 3.8 takes Y* of the particle's own type
+        pair only and no primitive wall's speed: README.md says why we keep the smaller, safer bound.
+        Vectorised over particles (per-type lookup tables): cheap enough to re-check during a run.
         """
         if len(self.pid) == 0:
             return math.inf, math.inf
+        ntypes = max(self.materials)
+        table = np.full((ntypes + 1, 3), np.nan)
+        for t, (y_t, nu_t, rho_t) in self.materials.items():
+            table[t] = (y_t, nu_t, rho_t)
         user_types = self.ptype + 1
-        y = np.array([self.materials[t][0] for t in user_types])
-        nu = np.array([self.materials[t][1] for t in user_types])
-        rho = np.array([self.materials[t][2] for t in user_types])
+        y, nu, rho = table[user_types, 0], table[user_types, 1], table[user_types, 2]
         shear = y / (2.0 * (1.0 + nu))
         t_r = float(np.min(math.pi * self.radius * np.sqrt(rho / shear) / (0.1631 * nu + 0.8766)))
         v_max = float(np.sqrt(np.max(np.einsum("ij,ij->i", self.v, self.v))))
@@ -483,33 +537,64 @@ class Simulation:
         v = max(2.0 * v_max, v_max + v_wall)
         if v == 0.0:
             return t_r, math.inf
-        partners = sorted(set(user_types.tolist()) | {w["type"] for w in self.walls})
-        t_h = math.inf
-        for t in sorted(set(user_types.tolist())):
-            ystar = max(effective_youngs_modulus(*self.materials[t][:2], *self.materials[p][:2]) for p in partners)
-            sel = user_types == t
-            m = self.mass[sel]
-            r_half = 0.5 * self.radius[sel]
-            t_h = min(t_h, float(np.min(2.87 * (m * m / (r_half * ystar * ystar * v)) ** 0.2)))
+        present = np.nonzero(np.bincount(user_types, minlength=ntypes + 1))[0].tolist()
+        partners = sorted(set(present) | {w["type"] for w in self.walls})
+        ystar = np.full(ntypes + 1, np.nan)
+        for t in present:
+            ystar[t] = max(effective_youngs_modulus(*self.materials[t][:2], *self.materials[p][:2])
+                           for p in partners)
+        ystar_i = ystar[user_types]
+        t_h = float(np.min(2.87 * (self.mass * self.mass / (0.5 * self.radius * ystar_i * ystar_i * v)) ** 0.2))
         return t_r, t_h
 
     def check_timestep(self, where: str):
+        """The check at run start: logs both times and the ratios; warns (strict: fails) above the fraction."""
         t_r, t_h = self.critical_timestep()
         self.log.info(f"critical time step: Rayleigh time {t_r:.6g} s (dt/t_R = {self.dt / t_r:.4g}), "
                       f"Hertz time {t_h:.6g} s (dt/t_H = {self.dt / t_h:.4g}), fraction limit "
                       f"{self.timestep_fraction:g}")
+        self._timestep_verdicts(where, "", t_r, t_h, warned=set())
+
+    def recheck_timestep(self, where: str, warned: set):
+        """The re-check every `timestep_every` steps with the current speeds; each kind of warning once per run
+        (warned holds the kinds already given)."""
+        t_r, t_h = self.critical_timestep()
+        self._timestep_verdicts(where, f"step {self.step}: ", t_r, t_h, warned)
+
+    def _timestep_verdicts(self, where: str, prefix: str, t_r: float, t_h: float, warned: set):
         for label, t_c in (("Rayleigh", t_r), ("Hertz", t_h)):
-            if self.dt > self.timestep_fraction * t_c:
-                text = (f"time step {self.dt:g} s is {self.dt / t_c:.3g} of the {label} time {t_c:.4g} s, above "
-                        f"the allowed fraction {self.timestep_fraction:g}")
+            if self.dt > self.timestep_fraction * t_c and label not in warned:
+                text = (f"{prefix}time step {self.dt:g} s is {self.dt / t_c:.3g} of the {label} time {t_c:.4g} s, "
+                        f"above the allowed fraction {self.timestep_fraction:g}")
                 if self.timestep_strict:
                     raise RunFailure(f"{where}: {text} (strict time step check)")
+                warned.add(label)
                 self.log.warning(text)
-        if len(self.pid):
+        if len(self.pid) and "skin" not in warned:
             v_max = float(np.sqrt(np.max(np.einsum("ij,ij->i", self.v, self.v))))
             if 2.0 * v_max * self.dt > self.skin:
-                self.log.warning(f"relative velocity {2 * v_max:.4g} m/s times dt exceeds the neighbor skin "
-                                 f"{self.skin:g} m; contacts may be missed")
+                warned.add("skin")
+                self.log.warning(f"{prefix}relative velocity {2 * v_max:.4g} m/s times dt exceeds the neighbor "
+                                 f"skin {self.skin:g} m; contacts may be missed")
+
+    def wall_overlaps(self):
+        """(particle-wall contacts above 10 % of the radius, largest overlap / radius) over all walls, vectorised.
+
+        Plane along axis a at p: overlap r - |x_a - p| (two-sided); z-cylinder: r - (R - rho) inside,
+        r - (rho - R) outside, rho the distance from its axis (physics.md, walls).
+        """
+        if not self.walls or len(self.pid) == 0:
+            return 0, 0.0
+        gaps = []
+        planes = [w for w in self.walls if w["shape"] == "plane"]
+        for w, p in zip(planes, self.plane_pos):
+            gaps.append(np.abs(self.x[:, w["axis"]] - p) - self.radius)
+        for w in (w for w in self.walls if w["shape"] == "cylinder"):
+            rho = np.hypot(self.x[:, 0] - w["center"][0], self.x[:, 1] - w["center"][1])
+            gap = (w["radius"] - rho) if w["side"] == "inside" else (rho - w["radius"])
+            gaps.append(gap - self.radius)
+        ratio = -np.array(gaps) / self.radius  # (walls, particles); > 0 where overlapping
+        return int(np.count_nonzero(ratio > OVERLAP_WARN_RATIO)), max(0.0, float(ratio.max()))
 
     # ------------------------------------------------------------------ run
     def combination(self) -> Combination:
@@ -587,12 +672,23 @@ class Simulation:
             self.nbr_j = np.zeros(0, dtype=np.int32)
             self.pair_hist = np.zeros((0, width))
 
-    def _report_lost(self, lost_ids, lost_steps, nlost):
+    def _report_lost(self, lost_ids, lost_steps, nlost, where: str, started_with: int):
+        """Warn with count and ids; a run that started with particles and has none left fails (LIGGGHTS
+        stops with "Lost atoms" by default): an empty simulation is broken physics, not a result."""
         if nlost:
             ids = ", ".join(str(i) for i in lost_ids[:nlost][:20]) + (" ..." if nlost > 20 else "")
             self.log.warning(f"{nlost} particle(s) left the fixed domain and were removed (ids {ids}; first at "
                              f"step {int(lost_steps[0])})")
             self.lost_total += nlost
+            if started_with and len(self.pid) == 0:
+                raise RunFailure(f"{where}: all {started_with} particles present at the start of the run left the "
+                                 f"fixed domain (the last at step {int(lost_steps[nlost - 1])}); nothing is left "
+                                 "to simulate")
+
+    def total_line(self) -> str:
+        """The log's last line after a successful script."""
+        return (f"total: {self.timing['steps']} steps, {len(self.pid)} particles, {self.lost_total} lost, "
+                f"{self.log.warnings} warning(s)")
 
     def cmd_run(self, fields: Fields):
         steps = fields.integer("steps", required=True, minimum=0)
@@ -610,27 +706,44 @@ class Simulation:
         self.plane_pos = walls[1]
         common = (pp, self.dt, self.model["characteristic_velocity"], gravity, self.lo, self.hi, self.periodic,
                   self.skin)
+        started_with = len(self.pid)
+        created = self.dirty
         if self.dirty:
             n = len(self.pid)
             lost_ids, lost_steps, nlost = np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(1, np.int64)
             state = kernel.setup(*self._state(), *common, self.step, lost_ids, lost_steps, nlost, *walls)
             self._set_state(state)
-            self._report_lost(lost_ids, lost_steps, int(nlost[0]))
+            self._report_lost(lost_ids, lost_steps, int(nlost[0]), fields.where, started_with)
             self.dirty = False
         # a zero-step call compiles run_steps (or loads it from the disk cache) outside the timed loop
         kernel.run_steps(*self._state(), *common, self.step, 0, np.zeros(3), np.zeros(1, np.int64),
                          np.zeros(1, np.int64), np.zeros(1, np.int64), *walls)
-        self.overlaps()  # the overlap check between chunks is compiled too: not inside the timed loop
+        # the overlap check between chunks is compiled too: not inside the timed loop
+        _, n_large, worst = self.overlaps()
         self.timing["compile"] += time.perf_counter() - t0  # first call of a kernel compiles or loads it
+        overlap_warned = False
+        max_overlap = worst
+        if created:
+            # particles created (or restored) overlapping: the run would start with a violent push apart; say
+            # so as the run-time check does (that one only looks after the first chunk of steps)
+            if n_large:
+                self.log.warning(f"step {self.step}: {n_large} contact(s) overlap more than "
+                                 f"{OVERLAP_WARN_RATIO:.0%} of the smaller radius (max {worst:.1%}) at the start "
+                                 "of the run")
+            n_wall, worst_wall = self.wall_overlaps()
+            if n_wall:
+                self.log.warning(f"step {self.step}: {n_wall} particle-wall contact(s) overlap more than "
+                                 f"{OVERLAP_WARN_RATIO:.0%} of the radius (max {worst_wall:.1%}) at the start of "
+                                 "the run")
         start_wall = time.perf_counter()
         start_cpu = time.process_time()  # CPU seconds too: on a shared machine wall time overstates the cost
         start_step, start_time = self.step, self.time
         timers = np.zeros(3)
         particle_steps = 0
         rebuilds = 0
+        self._where = fields.where
         self._outputs(start=True)
-        overlap_warned = False
-        max_overlap = 0.0
+        timestep_warned: set = set()
         end = start_step + steps
         self._end_step = end
         while self.step < end:
@@ -645,11 +758,11 @@ class Simulation:
             rebuilds += rebuilt
             self.step += done
             self.time = start_time + (self.step - start_step) * self.dt
-            self._report_lost(lost_ids, lost_steps, int(nlost[0]))
             if status == 1:
                 self.step += 1
                 raise RunFailure(f"{fields.where}: non-finite position of particle {int(self.pid[bad])} at step "
                                  f"{self.step}")
+            self._report_lost(lost_ids, lost_steps, int(nlost[0]), fields.where, started_with)
             self._check_finite(fields.where)
             _, n_large, worst = self.overlaps()
             max_overlap = max(max_overlap, worst)
@@ -657,6 +770,8 @@ class Simulation:
                 overlap_warned = True
                 self.log.warning(f"step {self.step}: {n_large} contact(s) overlap more than "
                                  f"{OVERLAP_WARN_RATIO:.0%} of the smaller radius (max {worst:.1%})")
+            if self.timestep_every and self.step % self.timestep_every == 0:
+                self.recheck_timestep(fields.where, timestep_warned)
             self._outputs(start=False)
         total = time.perf_counter() - start_wall
         cpu = time.process_time() - start_cpu
@@ -677,9 +792,15 @@ class Simulation:
                       f"({particle_steps / cpu if cpu > 0 else 0.0:.4g} particle-steps per cpu second)")
 
     def _check_finite(self, where):
+        """Positions, velocities, forces, spins and the kinetic energies they give must be finite doubles: a
+        speed of 1e200 m/s is finite, its 0.5 m v^2 is not, and thermo would print inf."""
+        with np.errstate(all="ignore"):
+            kinetic = 0.5 * self.mass * np.einsum("ij,ij->i", self.v, self.v)
+            rotational = 0.2 * self.mass * self.radius ** 2 * np.einsum("ij,ij->i", self.omega, self.omega)
         for label, array in (("velocity", self.v), ("force", self.f), ("angular velocity", self.omega),
-                             ("position", self.x)):
-            bad = np.nonzero(~np.all(np.isfinite(array), axis=1))[0]
+                             ("position", self.x), ("kinetic energy", kinetic), ("rotational energy", rotational)):
+            finite = np.isfinite(array) if array.ndim == 1 else np.all(np.isfinite(array), axis=1)
+            bad = np.nonzero(~finite)[0]
             if len(bad):
                 raise RunFailure(f"{where}: non-finite {label} of particle {int(self.pid[bad[0]])} at step "
                                  f"{self.step}")
@@ -690,26 +811,37 @@ class Simulation:
         return every
 
     def _next_output_step(self, end):
+        """The next step at which Python looks at the state: an output, a time step re-check, or the end."""
         stop = end
-        for every in self._output_every():
+        for every in self._output_every() + ([self.timestep_every] if self.timestep_every else []):
             stop = min(stop, (self.step // every + 1) * every)
         return stop
+
+    def _row(self, columns):
+        """Values of output columns; a global quantity that is not finite stops the run instead of reaching a
+        file (per-particle quantities of an absent id are NaN by design, as is com_* without particles)."""
+        values = [self.quantity(c) for c in columns]
+        for c, value in zip(columns, values):
+            if (isinstance(value, float) and not math.isfinite(value) and _PARTICLE_QUANTITY.match(c) is None
+                    and not (c.startswith("com_") and len(self.pid) == 0)):
+                raise RunFailure(f"{self._where}: non-finite {c} ({value}) at step {self.step}")
+        return values
 
     def _outputs(self, start: bool):
         t0 = time.perf_counter()
         if self.thermo is None:
-            self.thermo = CsvSeries(self.thermo_file, self.thermo_columns)
+            self.thermo = CsvSeries(self.thermo_file, self.thermo_columns, "thermo file")
         # rows at run start, every N steps and at run end, like LIGGGHTS' thermo
         if start or (self.thermo_every and self.step % self.thermo_every == 0) or self.step == self._end_step:
-            self.thermo.write(self.step, [self.quantity(c) for c in self.thermo_columns])
+            self.thermo.write(self.step, self._row(self.thermo_columns))
         for name in self.active:
             mod = self.modifiers[name]
             if "every" not in mod or self.step % mod["every"]:
                 continue
             if mod["kind"] == "print":
                 if mod["series"] is None:
-                    mod["series"] = CsvSeries(mod["file"], ["step", "time"] + mod["quantities"])
-                mod["series"].write(self.step, [self.step, self.time] + [self.quantity(q) for q in mod["quantities"]])
+                    mod["series"] = CsvSeries(mod["file"], ["step", "time"] + mod["quantities"], "print file")
+                mod["series"].write(self.step, self._row(["step", "time"] + mod["quantities"]))
             elif mod["kind"] == "vtk":
                 self.write_vtk(mod)
             elif mod["kind"] == "restart" and not start:
@@ -717,10 +849,14 @@ class Simulation:
         self.timing["output"] += time.perf_counter() - t0
 
     _end_step = None
+    _where = ""
 
     def write_vtk(self, mod):
         folder = Path(mod["folder"])
-        folder.mkdir(parents=True, exist_ok=True)
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise output_failure("VTK dump folder", folder, exc) from None
         order = np.argsort(self.pid, kind="stable")  # files list particles by id, whatever the memory order
         write_vtp(folder / f"{mod['prefix']}_{self.step}.vtp", self.pid[order], self.ptype[order] + 1,
                   self.x[order], self.v[order], self.f[order], self.omega[order], self.radius[order])
@@ -730,25 +866,38 @@ class Simulation:
         """Everything needed to continue bitwise: particles in memory order, neighbor list, contact history."""
         if self.lo is None:
             raise InputError(f"restart {path}: nothing to write (no domain yet)")
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "wb") as handle:
-            np.savez(handle, format=RESTART_FORMAT, step=self.step, time=self.time,
-                     dt=np.nan if self.dt is None else self.dt, skin=self.skin, lo=self.lo, hi=self.hi,
-                     periodic=self.periodic, next_id=self.next_id, dirty=self.dirty,
-                     walls=json.dumps(self.walls), plane_pos=self.plane_pos, wall_force=self.wall_force,
-                     **dict(zip(("x", "v", "f", "omega", "torque", "radius", "mass", "inv_mass", "inv_inertia",
-                                 "ptype", "pid", "x_build", "nbr_start", "nbr_j", "pair_hist", "wall_hist"),
-                                self._state())))
+        try:
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            with open(path, "wb") as handle:
+                np.savez(handle, format=RESTART_FORMAT, step=self.step, time=self.time,
+                         dt=np.nan if self.dt is None else self.dt, skin=self.skin, lo=self.lo, hi=self.hi,
+                         periodic=self.periodic, next_id=self.next_id, dirty=self.dirty,
+                         walls=json.dumps(self.walls), plane_pos=self.plane_pos, wall_force=self.wall_force,
+                         **dict(zip(STATE_ARRAYS, self._state())))
+        except OSError as exc:
+            raise output_failure("restart file", path, exc) from None
         self.log.info(f"wrote restart file {path} at step {self.step}")
 
     def read_restart(self, path: str, fields: Fields):
+        """Restore a restart file, after checking that it is one: a truncated, foreign or inconsistent file
+        must be bad input, never a crash, and never arrays whose sizes disagree reaching the compiled kernel
+        (which does not check bounds)."""
         try:
-            data = np.load(path, allow_pickle=False)
-        except (OSError, ValueError) as exc:
-            raise fields.error("file", f"cannot read restart file {path}: {exc}") from None
+            data = _load_restart(path)
+        except OSError as exc:
+            raise fields.error("file", f"cannot read restart file {path}: {exc.strerror or exc}") from None
+        except Exception as exc:  # noqa: BLE001 - whatever a broken archive raises, the file is the problem
+            raise fields.error("file", f"{path} is not a readable restart file ({type(exc).__name__}: "
+                               f"{str(exc).splitlines()[0] if str(exc) else 'no detail'})") from None
+        if data.get("format") is None or data["format"].shape != () or data["format"].dtype.kind not in "iu":
+            raise fields.error("file", f"{path} is not a restart file of this engine (no format number)")
         if int(data["format"]) != RESTART_FORMAT:
             raise fields.error("file", f"{path} has restart format {int(data['format'])}, expected {RESTART_FORMAT}")
-        for w in json.loads(str(data["walls"])):
+        try:
+            walls = _check_restart(data)
+        except ValueError as exc:
+            raise fields.error("file", f"{path} is not a consistent restart file: {exc}") from None
+        for w in walls:
             if w["type"] not in self.materials:
                 raise fields.error("file", f"wall '{w['name']}' in {path} uses material type {w['type']} "
                                    "which this script does not define")
@@ -764,12 +913,10 @@ class Simulation:
         self.lo, self.hi = data["lo"].copy(), data["hi"].copy()
         self.periodic = data["periodic"].copy()
         self.next_id = int(data["next_id"])
-        self.walls = json.loads(str(data["walls"]))
+        self.walls = walls
         self.plane_pos = data["plane_pos"].copy()
         self.wall_force = data["wall_force"].copy()
-        self._set_state(tuple(np.ascontiguousarray(data[k]) for k in (
-            "x", "v", "f", "omega", "torque", "radius", "mass", "inv_mass", "inv_inertia", "ptype", "pid",
-            "x_build", "nbr_start", "nbr_j", "pair_hist", "wall_hist")))
+        self._set_state(tuple(np.ascontiguousarray(data[k]) for k in STATE_ARRAYS))
         self.dirty = bool(data["dirty"])
         self.log.info(f"read restart file {path}: step {self.step}, {len(self.pid)} particles")
 
@@ -785,3 +932,74 @@ class Simulation:
         t["other"] = max(0.0, t["total"] - t["pair"] - t["neigh"] - t["comm"] - t["modify"] - t["output"])
         t["particle_steps_per_second"] = t["particle_steps"] / t["total"] if t["total"] > 0 else 0.0
         return t
+
+
+def _load_restart(path: str) -> dict:
+    """All arrays of a restart file (.npz), read eagerly so that a truncated member fails here."""
+    archive = np.load(path, allow_pickle=False)
+    if not isinstance(archive, np.lib.npyio.NpzFile):
+        raise ValueError("a single .npy array, not an .npz archive")
+    with archive:
+        return {key: archive[key] for key in archive.files}
+
+
+#: restart arrays: name -> (dtype kind, shape with "n" for the particle count)
+_RESTART_SHAPES = {
+    "x": ("f", ("n", 3)), "v": ("f", ("n", 3)), "f": ("f", ("n", 3)), "omega": ("f", ("n", 3)),
+    "torque": ("f", ("n", 3)), "x_build": ("f", ("n", 3)), "radius": ("f", ("n",)), "mass": ("f", ("n",)),
+    "inv_mass": ("f", ("n",)), "inv_inertia": ("f", ("n",)), "ptype": ("i", ("n",)), "pid": ("i", ("n",)),
+    "nbr_start": ("i", (None,)), "nbr_j": ("i", (None,)), "pair_hist": ("f", (None, None)),
+    "wall_hist": ("f", (None, None, None)), "step": ("i", ()), "time": ("f", ()), "dt": ("f", ()),
+    "skin": ("f", ()), "lo": ("f", (3,)), "hi": ("f", (3,)), "periodic": ("b", (3,)), "next_id": ("i", ()),
+    "dirty": ("b", ()), "walls": ("U", ()), "plane_pos": ("f", (None,)), "wall_force": ("f", (None, 3)),
+}
+
+
+def _check_restart(data: dict) -> list[dict]:
+    """ValueError naming the first inconsistency of a restart file's arrays; returns its walls."""
+    missing = sorted(set(_RESTART_SHAPES) - set(data))
+    if missing:
+        raise ValueError(f"missing {', '.join(missing)}")
+    n = data["pid"].shape[0] if data["pid"].ndim == 1 else -1
+    for key, (kind, shape) in _RESTART_SHAPES.items():
+        a = data[key]
+        want = tuple(n if d == "n" else d for d in shape)
+        if (a.dtype.kind != kind or a.ndim != len(want)
+                or any(w is not None and w != s for w, s in zip(want, a.shape))):
+            raise ValueError(f"array '{key}' has dtype {a.dtype} and shape {a.shape}, expected kind '{kind}' and "
+                             f"shape {tuple('N' if d == 'n' else ('*' if d is None else d) for d in shape)}")
+        if kind == "f" and key != "dt" and not np.all(np.isfinite(a)):  # dt is NaN when none was set
+            raise ValueError(f"array '{key}' holds non-finite values")
+    if np.any(data["radius"] <= 0) or np.any(data["mass"] <= 0) or np.any(data["ptype"] < 0):
+        raise ValueError("a particle with radius, mass or type out of range")
+    if int(data["step"]) < 0 or not np.all(data["hi"] > data["lo"]) or float(data["skin"]) <= 0:
+        raise ValueError("step, domain or skin out of range")
+    pid = data["pid"]
+    if len(np.unique(pid)) != n or (n and (pid.min() < 1 or pid.max() >= int(data["next_id"]))):
+        raise ValueError("particle ids are not unique or not below next_id")
+    start, j = data["nbr_start"], data["nbr_j"]
+    if (not 1 <= len(start) <= n + 1 or start[0] != 0 or np.any(np.diff(start) < 0) or start[-1] != len(j)
+            or (len(j) and (j.min() < 0 or j.max() >= n))):
+        raise ValueError("the neighbor list does not fit the particles")
+    try:
+        walls = json.loads(str(data["walls"]))
+    except ValueError as exc:
+        raise ValueError(f"the wall list is not JSON ({exc})") from None
+    if not isinstance(walls, list) or not all(_wall_ok(w) for w in walls):
+        raise ValueError("the wall list is not a list of wall definitions")
+    planes = sum(1 for w in walls if w["shape"] == "plane")
+    if data["plane_pos"].shape[0] != planes:
+        raise ValueError(f"{data['plane_pos'].shape[0]} plane positions for {planes} planes")
+    return walls
+
+
+def _wall_ok(w) -> bool:
+    def numbers(value, k):
+        return isinstance(value, list) and len(value) == k and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    if not (isinstance(w, dict) and isinstance(w.get("name"), str) and isinstance(w.get("type"), int)):
+        return False
+    if w.get("shape") == "plane":
+        return w.get("axis") in (0, 1, 2) and numbers([w.get("position")], 1) and numbers(w.get("velocity"), 3)
+    return (w.get("shape") == "cylinder" and numbers(w.get("center"), 2) and numbers([w.get("radius")], 1)
+            and w.get("side") in ("inside", "outside"))

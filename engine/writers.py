@@ -2,37 +2,59 @@
 
 Every CSV row is flushed as soon as it is written, so a run that crashes leaves valid files behind. Numbers
 are written with ``repr`` (shortest exact round trip): two runs agree byte for byte iff their values do.
+A file that cannot be written (missing permission, a folder in the way, a full disk) raises RunFailure naming
+the file and the system's reason, never a bare OSError.
 """
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
+
+from .errors import output_failure
 
 
 class CsvSeries:
     """A CSV file with a header and one row per output step; a step already written is not repeated."""
 
-    def __init__(self, path: str, columns: list[str]):
+    def __init__(self, path: str, columns: list[str], what: str = "CSV file"):
         self.path = Path(path)
+        self.what = what
         self.columns = columns
-        if self.path.parent != Path(""):
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.handle = open(self.path, "w", buffering=1)
-        self.handle.write(",".join(columns) + "\n")
-        self.handle.flush()
+        self.handle = None
         self.last_step = None
+        try:
+            if self.path.parent != Path(""):
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+            self.handle = open(self.path, "w", buffering=1, encoding="utf-8")
+        except OSError as exc:
+            raise output_failure(what, path, exc) from None
+        self._put(",".join(columns) + "\n")
+
+    def _put(self, text: str):
+        try:
+            self.handle.write(text)
+            self.handle.flush()
+        except OSError as exc:
+            self.close()
+            raise output_failure(self.what, self.path, exc) from None
 
     def write(self, step: int, values: list):
-        if step == self.last_step:
+        if step == self.last_step or self.handle is None:
             return
         self.last_step = step
-        self.handle.write(",".join(_format(v) for v in values) + "\n")
-        self.handle.flush()
+        self._put(",".join(_format(v) for v in values) + "\n")
 
     def close(self):
-        self.handle.close()
+        """Close once; a failed final flush was already reported by the write that failed first."""
+        handle, self.handle = self.handle, None
+        if handle is not None:
+            try:
+                handle.close()
+            except OSError:
+                pass
 
 
 def _format(value) -> str:
@@ -64,14 +86,33 @@ def write_vtp(path: Path, ids, types, x, v, f, omega, radius):
         array = numpy_to_vtk(np.ascontiguousarray(values), deep=True)
         array.SetName(name)
         data.AddArray(array)
+    try:
+        # opening it here first gives the system's reason (VTK only reports a code) for a path that cannot be
+        # a file
+        open(path, "wb").close()
+    except OSError as exc:
+        raise output_failure("VTK dump", path, exc) from None
     writer = vtk.vtkXMLPolyDataWriter()
     writer.SetFileName(str(path))
     writer.SetInputData(poly)
     writer.SetDataModeToBinary()
-    if not writer.Write():
-        raise OSError(f"cannot write VTK file {path}")
+    # VTK prints its own multi-line error report on stderr; the engine reports one ERROR line instead
+    shown = vtk.vtkObject.GetGlobalWarningDisplay()
+    vtk.vtkObject.GlobalWarningDisplayOff()
+    try:
+        ok = writer.Write()
+    finally:
+        vtk.vtkObject.SetGlobalWarningDisplay(shown)
+    if not ok:
+        code = writer.GetErrorCode()
+        reason = (os.strerror(code) if 0 < code < vtk.vtkErrorCode.FirstVTKErrorCode
+                  else vtk.vtkErrorCode.GetStringFromErrorCode(code))
+        raise output_failure("VTK dump", path, OSError(code, reason))
 
 
 def write_timing(path: str, timing: dict):
     """timing.json: pair, neigh, comm, modify, output, other, total (s), steps, particles, particle_steps_per_second."""
-    Path(path).write_text(json.dumps(timing, indent=1) + "\n")
+    try:
+        Path(path).write_text(json.dumps(timing, indent=1) + "\n")
+    except OSError as exc:
+        raise output_failure("timing file", path, exc) from None
