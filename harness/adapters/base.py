@@ -5,6 +5,7 @@ files the program leaves there: a log, thermo output, a timing breakdown, VTK du
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -21,12 +22,91 @@ class LogScan:
     warnings: list[str] = field(default_factory=list)
 
 
+def find_column(columns, wanted: str) -> str | None:
+    """The column of ``columns`` a user or script means by ``wanted``, or None.
+
+    First the exact name, then the name without a LAMMPS-style ``c_``/``v_``/``f_`` prefix on either side
+    (LIGGGHTS 3.8 prints ``c_rke`` as ``rke``, LAMMPS keeps ``c_rke``), then case-insensitively.
+    """
+    columns = [str(c) for c in columns]
+    if wanted in columns:
+        return wanted
+    bare = re.sub(r"^[cvf]_", "", wanted)
+    for column in columns:
+        if re.sub(r"^[cvf]_", "", column) == bare:
+            return column
+    lowered = {c.lower(): c for c in columns}
+    return lowered.get(wanted.lower()) or lowered.get(bare.lower())
+
+
 class EngineAdapter:
-    """Base class; subclasses set ``name`` and implement the methods below."""
+    """Base class; subclasses set ``name`` and implement the methods below.
+
+    The contract, everything code-specific in one place (../shared/design.md, "Engines are programs"):
+
+    - ``command``: the command line of one run; ``log_file``: the log it asks the code to write;
+    - ``accepts_script``: whether a plain ``script`` of a run.config is in this code's input language;
+    - ``default_thermo_columns`` and ``map_thermo``: the code's names for the harness' thermo columns;
+    - ``read_thermo``, ``read_timing``, ``scan_log``, ``vtk_files``: what a finished run left behind;
+    - ``default_run_config``: run configurations for a folder without run.config (shipped examples).
+
+    Adapters are found by name (``harness.adapters.get_adapter``): the built-in modules, adapters other
+    packages declare in the entry-point group ``dem_harness.adapters``, and ``generic:FILE`` (an adapter
+    configured by a JSON file, ``harness.adapters.generic``).
+    """
 
     name = ""
     #: required thermo columns after the adapter's mapping (thesis 4.4.1)
     required_thermo = ("step", "atoms", "ke", "rke")
+    #: harness name -> the code's own thermo column name, used when neither target nor run.config maps it
+    default_thermo_columns: dict[str, str] = {}
+
+    def accepts_script(self, script: str) -> bool:
+        """Whether a run.config's plain ``script`` (not a per-adapter object) is for this code.
+
+        A run.config may name one script for all codes, or ``{"dem": "scene.json", "lammps": "in.scene"}``;
+        a plain script in another code's input language is not a run of this code (skipped, not failed).
+        """
+        return True
+
+    def map_thermo(self, table, mapping: dict[str, str] | None, source: str, candidates: dict | None = None):
+        """``table`` (pandas DataFrame in the code's column names) with the harness' columns first.
+
+        For each required column (``required_thermo``) the first match wins: ``mapping`` (``thermo_columns``
+        of the target or run.config; a missing column is an error naming it) > ``default_thermo_columns`` >
+        ``candidates[key]`` (a list of names, e.g. the IDs of erotate/sphere computes). Columns are matched
+        with ``find_column``. ``step`` and ``atoms`` become integers when they have no gaps; every other
+        column of the table follows under its own name. Errors are ``UserError`` lines naming ``source``.
+        """
+        import pandas as pd
+
+        columns = [str(c) for c in table.columns]
+        table = table.copy()
+        table.columns = columns
+        chosen: dict[str, str] = {}
+        for key in self.required_thermo:
+            column = None
+            if mapping and key in mapping:
+                column = find_column(columns, str(mapping[key]))
+                if column is None:
+                    raise UserError(f"{source}: thermo_columns.{key} = {mapping[key]!r} is not a thermo column "
+                                    f"(columns: {', '.join(columns)})")
+            else:
+                names = ([self.default_thermo_columns[key]] if key in self.default_thermo_columns else [])
+                names += list((candidates or {}).get(key, [])) + [key]
+                column = next((c for c in (find_column(columns, n) for n in names) if c), None)
+            if column is None:
+                raise UserError(f"{source}: no thermo column for {key!r} (columns: {', '.join(columns)}); "
+                                f"name it in thermo_columns of the target or run.config")
+            chosen[key] = column
+        result = pd.DataFrame({key: table[column].to_numpy() for key, column in chosen.items()})
+        for key in ("step", "atoms"):
+            if key in result and result[key].notna().all():
+                result[key] = result[key].astype("int64")
+        for column in columns:
+            if column not in chosen.values() and column not in result.columns:
+                result[column] = table[column].to_numpy()
+        return result
 
     def command(self, executable: list[str], script: str, variables: dict[str, str], log: str,
                 mpi: list[str] | None = None) -> list[str]:

@@ -1,0 +1,308 @@
+"""Adapter for LAMMPS with the GRANULAR package (Debian package ``lammps``: ``/usr/bin/lmp``).
+
+LAMMPS is run as a program from the run folder, like LIGGGHTS (a LAMMPS fork) and the bundled engine::
+
+    [mpirun [--allow-run-as-root] [--oversubscribe] -np N] lmp -in in.scene -var NAME VALUE ... -log log.lammps
+
+Everything the harness needs is read from the log LAMMPS writes with ``-log`` (the format of LAMMPS
+29 Sep 2021, the Debian release, and of later ones):
+
+- thermo: one table per ``run``, each after its own header (``Step Atoms KinEng c_rke``); compute columns
+  keep their ``c_`` prefix (LIGGGHTS strips it). Only the one-line thermo style is read (not ``multi``/``yaml``).
+- timing: ``Loop time of T on P procs for N steps with A atoms`` and the table after
+  ``MPI task timing breakdown:`` (``Pair | min | avg | max | %varavg | %total``); the harness takes the
+  ``avg`` column of Pair, Neigh, Comm, Output, Modify, Other, summed over run blocks.
+- failures: ``ERROR: ...`` (rank 0, log and screen) and ``ERROR on proc N: ...`` (screen only) lines;
+  ``WARNING: ...`` lines of the log are counted.
+- dumps: the echoed ``dump ID group custom N file ...`` commands. The Debian build has no VTK package, so
+  text dumps (``custom``, ``custom/gz``) are converted to VTK PolyData (``vtk/<file>_<step>.vtp``, one file per
+  snapshot, a point per atom, every column a point array, ``v``/``f``/``omega`` vectors) and read like any
+  other dump; ``dump vtk`` files of a build with the VTK package are read as they are.
+
+The thermo energy columns are taken as printed: LAMMPS normalises extensive thermo values by the atom count
+when ``thermo_modify norm yes``, the default of ``units lj`` (``norm no`` for ``si``, LAMMPS docs,
+thermo_modify). The cross-code scenes use ``units si`` and ``thermo_modify norm no``.
+"""
+from __future__ import annotations
+
+import gzip
+import math
+import os
+import re
+from pathlib import Path
+
+from harness.adapters import register
+from harness.adapters.base import LogScan, UserError
+from harness.adapters.liggghts import LiggghtsAdapter, erotate_compute_ids, parse_thermo_blocks, read_log_lines
+
+#: log file name the harness passes with ``-log`` (LAMMPS' own default is ``log.lammps`` too)
+LOG_NAME = "log.lammps"
+#: harness timing keys for the section names of LAMMPS' "MPI task timing breakdown" table
+TIMING_SECTIONS = {"Pair": "pair", "Neigh": "neigh", "Comm": "comm", "Output": "output", "Modify": "modify",
+                   "Other": "other", "Bond": "bond", "Kspace": "kspace"}
+TIMING_KEYS = ("pair", "neigh", "comm", "modify", "output", "other", "total")
+
+_LOOP_TIME = re.compile(r"^Loop time of (\S+) on (\d+) procs? for (\d+) steps")
+_TABLE_ROW = re.compile(r"^(\w+)\s*\|")
+_DUMP = re.compile(r"^\s*dump\s+(\S+)\s+\S+\s+(\S+)\s+\d+\s+(\S+)")
+#: text dump styles converted to VTK, and styles LAMMPS writes as VTK itself (VTK package)
+_TEXT_DUMPS = {"custom", "custom/gz"}
+_VTK_DUMPS = {"vtk", "custom/vtk"}
+#: per-atom vectors assembled from dump columns (name in the .vtp -> dump columns)
+_VECTORS = {"v": ("vx", "vy", "vz"), "f": ("fx", "fy", "fz"), "omega": ("omegax", "omegay", "omegaz")}
+#: dump columns that may hold the position, preferred first (unwrapped, wrapped)
+_POSITIONS = (("xu", "yu", "zu"), ("x", "y", "z"))
+
+
+def parse_timing(lines: list[str]) -> dict[str, float]:
+    """Wall time in s summed over run blocks: ``total`` from ``Loop time of T``, sections from the avg column.
+
+    LAMMPS prints, after each run (src/finish.cpp)::
+
+        Section |  min time  |  avg time  |  max time  |%varavg| %total
+        Pair    | 0.0002386  | 0.0002386  | 0.0002386  |   0.0 | 25.04
+        Other   |            | 7.145e-05  |            |       |  7.50
+    """
+    timing = {key: 0.0 for key in TIMING_KEYS}
+    in_table = False
+    for line in lines:
+        loop = _LOOP_TIME.match(line)
+        if loop:
+            timing["total"] += float(loop.group(1))
+            continue
+        if line.startswith("Section |"):
+            in_table = True
+            continue
+        if not in_table:
+            continue
+        row = _TABLE_ROW.match(line)
+        if row is None:
+            if line.strip() and not line.startswith("---"):
+                in_table = False
+            continue
+        cells = [cell.strip() for cell in line.split("|")]
+        if row.group(1) in TIMING_SECTIONS and len(cells) >= 3:
+            try:
+                value = float(cells[2])
+            except ValueError:
+                continue
+            if math.isfinite(value):
+                key = TIMING_SECTIONS[row.group(1)]
+                timing[key] = timing.get(key, 0.0) + value
+    return timing
+
+
+def _open_text(path: Path):
+    if path.suffix == ".gz":
+        return gzip.open(path, "rt", errors="replace")
+    return open(path, errors="replace")
+
+
+def read_custom_dump(path: Path) -> list[tuple[int, list[str], list[list[float]]]]:
+    """Snapshots of a LAMMPS text dump (``dump custom``): ``(step, columns, rows)`` per ``ITEM: TIMESTEP``.
+
+    A truncated last snapshot (the run was killed while writing) is dropped; a malformed file is a
+    UserError naming it.
+    """
+    snapshots = []
+    with _open_text(path) as handle:
+        lines = handle.read().splitlines()
+    i = 0
+    while i < len(lines):
+        if not lines[i].startswith("ITEM: TIMESTEP"):
+            i += 1
+            continue
+        try:
+            step = int(lines[i + 1].split()[0])
+            if not lines[i + 2].startswith("ITEM: NUMBER OF ATOMS"):
+                raise ValueError("ITEM: NUMBER OF ATOMS expected")
+            count = int(lines[i + 3].split()[0])
+            j = i + 4
+            while j < len(lines) and not lines[j].startswith("ITEM: ATOMS"):
+                j += 1
+            columns = lines[j].split()[2:]
+        except (IndexError, ValueError) as exc:
+            raise UserError(f"{path}: line {i + 1}: not a LAMMPS custom dump snapshot ({exc})") from None
+        rows = []
+        for line in lines[j + 1:j + 1 + count]:
+            words = line.split()
+            if len(words) != len(columns):
+                break
+            rows.append([float(w) for w in words])
+        if len(rows) < count:
+            break  # truncated snapshot
+        snapshots.append((step, columns, rows))
+        i = j + 1 + count
+    return snapshots
+
+
+def write_vtp(path: Path, columns: list[str], rows: list[list[float]]) -> None:
+    """One snapshot as VTK XML PolyData: a vertex per atom, each column a point array, vectors assembled."""
+    import numpy as np
+    import vtk
+    from vtk.util.numpy_support import numpy_to_vtk
+
+    data = np.array(rows, dtype=float).reshape(len(rows), len(columns))
+    index = {name: k for k, name in enumerate(columns)}
+    position = next((names for names in _POSITIONS if all(n in index for n in names)), None)
+    if position is None:
+        raise UserError(f"{path.name}: the dump has no x y z (or xu yu zu) columns (columns: {' '.join(columns)})")
+    points = vtk.vtkPoints()
+    points.SetData(numpy_to_vtk(np.ascontiguousarray(data[:, [index[n] for n in position]]), deep=True))
+    poly = vtk.vtkPolyData()
+    poly.SetPoints(points)
+    cells = vtk.vtkCellArray()
+    for k in range(len(rows)):
+        cells.InsertNextCell(1)
+        cells.InsertCellPoint(k)
+    poly.SetVerts(cells)
+    point_data = poly.GetPointData()
+    arrays = {name: data[:, k] for name, k in index.items() if name not in position}
+    for vector, names in _VECTORS.items():
+        if all(n in index for n in names):
+            arrays[vector] = data[:, [index[n] for n in names]]
+    for name, values in arrays.items():
+        array = numpy_to_vtk(np.ascontiguousarray(values), deep=True)
+        array.SetName(name)
+        point_data.AddArray(array)
+    writer = vtk.vtkXMLPolyDataWriter()
+    writer.SetFileName(str(path))
+    writer.SetInputData(poly)
+    writer.SetDataModeToBinary()
+    if not writer.Write():
+        raise UserError(f"{path}: VTK writer failed")
+
+
+def dump_patterns(lines: list[str]) -> list[tuple[str, str, str]]:
+    """``(dump ID, style, file pattern)`` of the echoed ``dump`` commands, in order; patterns with ``${...}``
+    are left out (LAMMPS echoes the substituted line right after)."""
+    found = []
+    for line in lines:
+        m = _DUMP.match(line)
+        if m and "$" not in m.group(3) and m.groups() not in found:
+            found.append(m.groups())
+    return found
+
+
+def _matching_files(folder: Path, pattern: str) -> list[tuple[Path, int | None]]:
+    """Files of a dump pattern: ``*`` is the time step; no ``*`` is one file (all snapshots in it)."""
+    if "*" not in pattern:
+        path = folder / pattern
+        return [(path, None)] if path.is_file() else []
+    directory, name = os.path.split(pattern)
+    regex = re.compile("^" + re.escape(name).replace(r"\*", r"(\d+)") + "$")
+    base = folder / directory
+    if not base.is_dir():
+        return []
+    return [(p, int(m.group(1))) for p in base.iterdir() if (m := regex.match(p.name))]
+
+
+@register
+class LammpsAdapter(LiggghtsAdapter):
+    """LAMMPS (GRANULAR package): command line, thermo/timing/errors from its log, custom dumps as VTK.
+
+    LAMMPS and LIGGGHTS share the command line, the thermo table and the error lines (LIGGGHTS is a LAMMPS
+    fork), so the LIGGGHTS adapter's command, error scan and ``in.*`` default run.config are reused; the
+    timing table, the thermo column names and the dumps differ.
+    """
+
+    name = "lammps"
+    default_thermo_columns = {"step": "Step", "atoms": "Atoms", "ke": "KinEng"}
+    #: folder of the run where converted dumps are written
+    vtk_folder = "vtk"
+
+    def log_file(self) -> str:
+        return LOG_NAME
+
+    def accepts_script(self, script: str) -> bool:
+        """LAMMPS input under any name (``in.*``, ``*.in``, ``*.lmp``), but not a JSON scene of the bundled
+        engine or a YADE Python script."""
+        return not script.endswith((".json", ".py"))
+
+    def read_thermo(self, folder, mapping=None):
+        """Thermo of all run blocks: step, atoms, ke, rke, then the log's own columns.
+
+        rke is the column of a ``compute ID group erotate/sphere`` echoed in the log (``c_ID``) unless
+        ``thermo_columns`` names one. A block that starts at the step the previous one ended at (``run N``
+        after ``run M``) repeats that row: the earlier row is kept. Blocks with other columns are joined
+        (missing values NaN).
+        """
+        import pandas as pd
+
+        folder = Path(folder)
+        lines = read_log_lines(folder, self.log_file())
+        source = str(folder / self.log_file())
+        frames, last_step = [], None
+        for header, rows in parse_thermo_blocks(lines):
+            if rows and last_step is not None and rows[0][0] == last_step:
+                rows = rows[1:]
+            if not rows:
+                continue
+            frames.append(pd.DataFrame(rows, columns=header))
+            last_step = rows[-1][0]
+        if not frames:
+            raise UserError(f"{source}: no thermo output (a 'thermo' table after a 'Step ...' header)")
+        table = pd.concat(frames, ignore_index=True)
+        candidates = {"rke": [f"c_{cid}" for cid in erotate_compute_ids(lines)]}
+        return self.map_thermo(table, mapping, source, candidates)
+
+    def read_timing(self, folder):
+        """Seconds summed over run blocks: total (``Loop time``), pair, neigh, comm, modify, output, other."""
+        try:
+            lines = read_log_lines(Path(folder), self.log_file())
+        except UserError:
+            return {key: 0.0 for key in TIMING_KEYS}
+        return parse_timing(lines)
+
+    def scan_log(self, folder) -> LogScan:
+        """``ERROR`` lines of the log, stdout and stderr (other ranks' errors reach the screen only), once
+        each, and the log's ``WARNING`` lines; a missing log is an error (LAMMPS opens it first thing)."""
+        folder = Path(folder)
+        log = folder / self.log_file()
+        scan = LogScan()
+        if not log.is_file():
+            scan.errors.append(f"{log.name} missing: LAMMPS did not start or could not open its log")
+        sources = [log] + sorted(p for p in folder.glob("std*") if p.is_file() and p.suffix in ("", ".txt", ".log"))
+        for source in sources:
+            if not source.is_file():
+                continue
+            for line in source.read_text(errors="replace").splitlines():
+                text = line.strip()
+                if text.startswith("ERROR") and text not in scan.errors:
+                    scan.errors.append(text)
+                elif text.startswith("WARNING") and source == log:
+                    scan.warnings.append(text)
+        return scan
+
+    def vtk_files(self, folder):
+        """Per-atom VTK files of the run's dumps, by time step (converted from text dumps on first call)."""
+        import shutil
+
+        folder = Path(folder)
+        try:
+            lines = read_log_lines(folder, self.log_file())
+        except UserError:
+            return []
+        found: dict[Path, tuple[int, int]] = {}
+        target = folder / self.vtk_folder
+        converted = False
+        for order, (dump_id, style, pattern) in enumerate(dump_patterns(lines)):
+            if style in _VTK_DUMPS:
+                for path, step in _matching_files(folder, pattern):
+                    found.setdefault(path, (step or 0, order))
+                continue
+            if style not in _TEXT_DUMPS:
+                continue
+            if not converted:
+                if target.is_dir():
+                    shutil.rmtree(target)
+                target.mkdir()
+                converted = True
+            for path, _step in sorted(_matching_files(folder, pattern)):
+                for step, columns, rows in read_custom_dump(path):
+                    out = target / f"{dump_id}_{step}.vtp"
+                    if out in found:
+                        continue
+                    write_vtp(out, columns, rows)
+                    found[out] = (step, order)
+        return sorted(found, key=lambda p: found[p])
