@@ -1,0 +1,127 @@
+"""Finding the commit that broke a target (``harness bisect TARGET GOOD BAD``), in about log2(n) builds.
+
+GOOD is run once as the baseline. Then, between GOOD and BAD (git's ``GOOD..BAD``: every commit reachable
+from BAD and not from GOOD), a commit is *bad* when its runs, compared with GOOD's by ``harness.compare``,
+have a new failure or an inconsistency - or, with ``slower``, when the geometric mean of its stepping-time
+ratios to GOOD reaches that factor. The search keeps the invariant "last known good < first bad" and halves
+the interval each step; a commit that cannot be built is skipped (the nearest buildable commit is tried), as
+``git bisect skip`` does.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from harness import gitrepo
+from harness.adapters.base import UserError
+from harness.builds import current_build
+from harness.compare import Comparison, compare_builds
+from harness.revisions import at_revision
+from harness.runner import RunOptions, run_targets
+
+
+@dataclass
+class Step:
+    commit: str
+    verdict: str          # "good", "bad", "skip"
+    detail: str = ""
+
+
+@dataclass
+class BisectResult:
+    first_bad: str | None
+    comparison: Comparison | None
+    steps: list[Step] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)
+    candidates: list[str] = field(default_factory=list)   # when skips leave several possible commits
+
+
+def judge(comparison: Comparison, slower: float | None) -> tuple[str, str]:
+    """("bad" | "good", why) for a commit's comparison with GOOD."""
+    if comparison.failed:
+        broken = comparison.outcomes("new_failure", "inconsistent")
+        first = broken[0]
+        what = (f"{first.testcase}/{first.run} {first.outcome}"
+                + (f" (lowest C {first.lowest_c:.4g})" if first.lowest_c is not None else ""))
+        return "bad", f"{len(broken)} run(s) broke, e.g. {what}"
+    ratio = comparison.time_ratio
+    if slower and ratio and ratio >= slower:
+        return "bad", f"stepping time {ratio:.3f}x GOOD's (limit {slower:g})"
+    return "good", (f"consistent; stepping time {ratio:.3f}x GOOD's" if ratio else "consistent")
+
+
+def bisect(target, good: str, bad: str, machine: str, pattern: str | None = None, slower: float | None = None,
+           jobs: int = 1, say=print) -> BisectResult:
+    repo = gitrepo.open_repository(target.repository)
+    good_commit, bad_commit = gitrepo.resolve(repo, good).hexsha, gitrepo.resolve(repo, bad).hexsha
+    commits = repo.git.rev_list("--reverse", f"{good_commit}..{bad_commit}").split()
+    if not commits:
+        raise UserError(f"bisect: no commits between {good} and {bad} ({bad} is not a descendant of {good})")
+    options = RunOptions(machine=machine, pattern=pattern, jobs=jobs)
+    say(f"bisect {target.name}: {len(commits)} commits after {good_commit[:10]} up to {bad_commit[:10]}, "
+        f"about {max(1, (len(commits)).bit_length())} builds")
+    good_build = _run(target, good_commit, options, say)
+    if good_build is None:
+        raise UserError(f"bisect: GOOD {good} ({good_commit[:10]}) cannot be built")
+    result = BisectResult(None, None)
+    comparisons: dict[str, Comparison] = {}
+
+    def test(index: int) -> str:
+        commit = commits[index]
+        build = _run(target, commit, options, say)
+        if build is None:
+            result.steps.append(Step(commit, "skip", "build failed"))
+            result.skipped.append(commit)
+            say(f"  {commit[:10]} skip (build failed)")
+            return "skip"
+        comparison = compare_builds(good_build, build, machine, f"{target.name}@{good_commit[:10]}",
+                                    f"{target.name}@{commit[:10]}", pattern)
+        if not comparison.pairs:
+            raise UserError("bisect: no runs to compare" + (f" matching {pattern!r}" if pattern else ""))
+        verdict, why = judge(comparison, slower)
+        comparisons[commit] = comparison
+        result.steps.append(Step(commit, verdict, why))
+        say(f"  {commit[:10]} {verdict}: {why}")
+        return verdict
+
+    if test(len(commits) - 1) != "bad":
+        raise UserError(f"bisect: BAD {bad} ({bad_commit[:10]}) is not bad against GOOD {good}: "
+                        f"{result.steps[-1].detail}")
+    lo, hi = -1, len(commits) - 1          # commits[lo] good (or GOOD itself), commits[hi] bad
+    while hi - lo > 1:
+        untested = [i for i in range(lo + 1, hi) if commits[i] not in result.skipped]
+        if not untested:                   # only unbuildable commits left between: any may be the first bad
+            result.candidates = commits[lo + 1:hi + 1]
+            break
+        mid = untested[len(untested) // 2]
+        verdict = test(mid)
+        if verdict == "bad":
+            hi = mid
+        elif verdict == "good":
+            lo = mid
+    result.first_bad = commits[hi] if not result.candidates else None
+    result.comparison = comparisons.get(commits[hi])
+    return result
+
+
+def _run(target, commit: str, options: RunOptions, say):
+    """Build and run ``target`` at ``commit``; its build, or None when it cannot be built."""
+    pinned = at_revision(target, commit)
+    report = run_targets([pinned], options, out=_Lines(say))
+    if any("build of target" in p for p in report.problems):
+        return None  # harness.builds.BuildError, reported by run_targets
+    return current_build(pinned, options.machine)
+
+
+class _Lines:
+    """Progress of the runs at one commit, condensed: only problems are passed on."""
+
+    def __init__(self, say):
+        self.say = say
+
+    def write(self, text):
+        for line in text.splitlines():
+            if line.startswith("harness:"):
+                self.say("    " + line[:300])
+
+    def flush(self):
+        pass

@@ -1,0 +1,61 @@
+"""``harness bisect TARGET GOOD BAD [-k PATTERN] [--slower FACTOR]``: the first commit that broke a target."""
+import sys
+
+NAME = "bisect"
+HELP = "find the first commit between GOOD and BAD whose runs fail, become inconsistent or slow down"
+
+
+def configure(parser):
+    parser.add_argument("target", metavar="TARGET", help="target name (its repository is searched)")
+    parser.add_argument("good", metavar="GOOD", help="a revision known to be good (tag, branch, sha, HEAD~n)")
+    parser.add_argument("bad", metavar="BAD", help="a later revision known to be bad")
+    parser.add_argument("-k", dest="pattern", metavar="PATTERN", help="only runs whose 'testcase/run' match")
+    parser.add_argument("-j", dest="jobs", type=int, default=1, metavar="N", help="runs in parallel (default 1)")
+    parser.add_argument("--slower", type=float, metavar="FACTOR",
+                        help="bad = stepping time grew by FACTOR (e.g. 1.2) against GOOD, besides failures")
+
+
+def run(args) -> int:
+    from harness.adapters.base import UserError
+    from harness.store import setup_store
+
+    if args.slower is not None and not args.slower > 1.0:
+        raise UserError("--slower must be a factor above 1 (e.g. 1.2)")
+    setup_store()
+    from harness import gitrepo
+    from harness.bisect import bisect
+    from harness.compare import rows
+    from harness.runner import format_table
+    from harness.targets import select_targets
+
+    (target,), _problems = select_targets([args.target], args.targets_dir)
+    result = bisect(target, args.good, args.bad, args.machine, args.pattern, args.slower, args.jobs,
+                    say=lambda text: print(text, file=sys.stderr, flush=True))
+    if result.first_bad is None:
+        print(f"the first bad commit is one of {len(result.candidates)} that cannot be built: "
+              + " ".join(c[:10] for c in result.candidates))
+        return 1
+    commit = gitrepo.resolve(gitrepo.open_repository(target.repository), result.first_bad)
+    print(f"first bad commit: {commit.hexsha}\n"
+          f"author: {commit.author.name} <{commit.author.email}>\n"
+          f"date:   {commit.committed_datetime.isoformat()}\n"
+          f"        {commit.summary}\n"
+          f"({len(result.steps)} commits tested" + (f", {len(result.skipped)} skipped" if result.skipped else "")
+          + ")")
+    comparison = result.comparison
+    if comparison is not None:
+        broken = [p for p in comparison.pairs if p.outcome in ("new_failure", "inconsistent")]
+        if broken:
+            print("\nwhat broke against GOOD:")
+            for pair in broken:
+                if pair.outcome == "new_failure":
+                    print(f"  {pair.testcase}/{pair.run}: failed ({pair.b.failure_reason}: "
+                          f"{pair.b.failure_message[:120]})")
+                for q in pair.bad:
+                    step = f", first bad step {q.first_bad_step:g}" if q.first_bad_step is not None else ""
+                    c = f"C = {q.value:.4g}" if q.value is not None else q.level
+                    print(f"  {pair.testcase}/{pair.run} {q.quantity}: {c}{step}")
+        elif args.slower:
+            print(f"\nstepping time against GOOD: {comparison.time_ratio:.3f}x (geometric mean)")
+            print(format_table(rows(comparison)))
+    return 0

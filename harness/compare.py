@@ -1,0 +1,235 @@
+"""Two builds side by side (``harness compare A B``): two revisions of one target, or two targets.
+
+Runs of A and B are paired by test case, run name and test case content (runs of other content are not
+comparable and are listed as such). For each pair, B is scored against A with the consistency score of
+``harness.consistency`` (A is the reference: C per quantity, first step out of band) plus the largest
+relative deviation ``max_k |b_k - a_k| / max_k |a_k|`` on the common steps, and the stepping-time ratio
+B/A (the engines' own loop time; no start-up, no JIT compilation). Outcomes:
+
+``new_failure``  A succeeded, B failed;          ``fixed``          A failed, B succeeded;
+``still_failing`` both failed;                   ``inconsistent``   both succeeded, some quantity of B is
+                                                                    outside A's band;
+``consistent``   both succeeded, every quantity within the band;
+``only_a`` / ``only_b``: a run of one side without a partner of the same content.
+
+The comparison fails (exit code 1 of ``harness compare``) on any new failure or inconsistency.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from harness.consistency import compare_runs, run_level
+from harness.rules import SUCCESS_STATES, effective_state
+
+FAILING_OUTCOMES = ("new_failure", "inconsistent")
+
+
+@dataclass
+class QuantityDelta:
+    """One quantity of B against A: C (thesis eq. 4.4), level, first step out of band, largest relative
+    deviation (dimensionless, None for text files)."""
+
+    quantity: str
+    value: float | None
+    level: str
+    first_bad_step: float | None
+    max_relative_deviation: float | None
+
+
+@dataclass
+class PairComparison:
+    testcase: str
+    run: str
+    outcome: str
+    a: object = None
+    b: object = None
+    quantities: list[QuantityDelta] = field(default_factory=list)
+    time_ratio: float | None = None     # stepping time B / A
+
+    @property
+    def lowest_c(self) -> float | None:
+        values = [q.value for q in self.quantities if q.value is not None]
+        return min(values) if values else None
+
+    @property
+    def bad(self) -> list[QuantityDelta]:
+        return [q for q in self.quantities if q.level not in ("perfect", "good")]
+
+    def as_dict(self) -> dict:
+        return {"testcase": self.testcase, "run": self.run, "outcome": self.outcome,
+                "a": _run_summary(self.a), "b": _run_summary(self.b), "lowest_c": self.lowest_c,
+                "time_ratio": self.time_ratio,
+                "quantities": [q.__dict__ for q in self.quantities]}
+
+
+@dataclass
+class Comparison:
+    label_a: str
+    label_b: str
+    commit_a: str
+    commit_b: str
+    pairs: list[PairComparison] = field(default_factory=list)
+
+    def outcomes(self, *names: str) -> list[PairComparison]:
+        return [p for p in self.pairs if p.outcome in names]
+
+    @property
+    def failed(self) -> bool:
+        return bool(self.outcomes(*FAILING_OUTCOMES))
+
+    @property
+    def time_ratio(self) -> float | None:
+        """Geometric mean of the per-run stepping-time ratios B/A (None without any)."""
+        ratios = [p.time_ratio for p in self.pairs if p.time_ratio]
+        return math.exp(sum(math.log(r) for r in ratios) / len(ratios)) if ratios else None
+
+    def counts(self) -> dict:
+        names = ("consistent", "inconsistent", "new_failure", "fixed", "still_failing", "only_a", "only_b")
+        return {name: len(self.outcomes(name)) for name in names}
+
+    def as_dict(self) -> dict:
+        return {"a": {"label": self.label_a, "commit": self.commit_a},
+                "b": {"label": self.label_b, "commit": self.commit_b},
+                "counts": self.counts(), "time_ratio": self.time_ratio, "failed": self.failed,
+                "pairs": [p.as_dict() for p in self.pairs]}
+
+
+def _run_summary(run) -> dict | None:
+    if run is None:
+        return None
+    return {"id": run.pk, "state": effective_state(run), "failure_reason": run.failure_reason,
+            "failure_message": run.failure_message[:300], "testcase_hash": run.testcase_hash,
+            "stepping_time": run.stepping_time, "wall_time": run.wall_time}
+
+
+def _series(run) -> list[dict]:
+    return [{"kind": s.kind, "name": s.name, "x_column": s.x_column, "columns": s.columns}
+            for s in run.series.all()]
+
+
+def max_relative_deviation(a_series: list[dict], b_series: list[dict], kind: str, name: str,
+                           quantity: str) -> float | None:
+    """``max |b - a| / max |a|`` over the common abscissa values of one quantity (None if not comparable)."""
+    a = next((s for s in a_series if (s["kind"], s["name"]) == (kind, name)), None)
+    b = next((s for s in b_series if (s["kind"], s["name"]) == (kind, name)), None)
+    if a is None or b is None or kind == "textfile":
+        return None
+    try:
+        xa = np.asarray(a["columns"][a["x_column"]], dtype=float)
+        xb = np.asarray(b["columns"][b["x_column"]], dtype=float)
+        ya = np.asarray(a["columns"][quantity], dtype=float)
+        yb = np.asarray(b["columns"][quantity], dtype=float)
+    except (KeyError, TypeError, ValueError):
+        return None
+    _common, ia, ib = np.intersect1d(xa, xb, return_indices=True)
+    if ia.size == 0:
+        return None
+    scale = np.nanmax(np.abs(ya)) if np.isfinite(ya).any() else 0.0
+    deviation = np.abs(yb[ib] - ya[ia])
+    if not np.isfinite(deviation).all():
+        return math.inf
+    largest = float(deviation.max())
+    return largest / scale if scale > 0 else (0.0 if largest == 0 else math.inf)
+
+
+def compare_pair(a, b) -> PairComparison:
+    """B against A, both runs of the same test case content."""
+    ok_a, ok_b = effective_state(a) in SUCCESS_STATES, effective_state(b) in SUCCESS_STATES
+    pair = PairComparison(a.testcase.path, a.name, "", a, b)
+    if a.stepping_time and b.stepping_time:
+        pair.time_ratio = b.stepping_time / a.stepping_time
+    if not ok_a or not ok_b:
+        pair.outcome = ("still_failing" if not ok_a and not ok_b else "new_failure" if ok_a else "fixed")
+        return pair
+    a_series, b_series = _series(a), _series(b)
+    results = compare_runs(b_series, a_series, (b.config or {}).get("consistency"))
+    for r in results:
+        pair.quantities.append(QuantityDelta(
+            f"{r.series_name}:{r.quantity}" if r.series_kind != "thermo" else r.quantity, r.value, r.level,
+            r.first_bad_step, max_relative_deviation(a_series, b_series, r.series_kind, r.series_name, r.quantity)))
+    level, _lowest = run_level(results)
+    pair.outcome = "inconsistent" if level == "inconsistent" else "consistent"
+    return pair
+
+
+def compare_builds(build_a, build_b, machine: str, label_a: str, label_b: str, pattern: str | None = None
+                   ) -> Comparison:
+    """Pair and compare the runs of two builds on ``machine`` (``pattern``: ``-k`` selection)."""
+    from harness.models import Run
+    from harness.testcases import matches
+
+    def runs_of(build):
+        found = {}
+        for run in (Run.objects.filter(build=build, machine__name=machine, replaced=False)
+                    .select_related("testcase").order_by("testcase__path", "name")):
+            if matches(pattern, run.testcase.path, run.name):
+                found[(run.testcase.path, run.name, run.testcase_hash)] = run
+        return found
+
+    runs_a, runs_b = runs_of(build_a), runs_of(build_b)
+    comparison = Comparison(label_a, label_b, build_a.commit, build_b.commit)
+    for key in sorted(set(runs_a) | set(runs_b)):
+        a, b = runs_a.get(key), runs_b.get(key)
+        if a is not None and b is not None:
+            comparison.pairs.append(compare_pair(a, b))
+        else:
+            comparison.pairs.append(PairComparison(key[0], key[1], "only_a" if b is None else "only_b", a, b))
+    return comparison
+
+
+# ------------------------------------------------------------------------------------------------ reports
+
+def _c(value) -> str:
+    return "-" if value is None else f"{value:.4g}"
+
+
+def _dev(value) -> str:
+    return "-" if value is None else ("inf" if math.isinf(value) else f"{value:.3g}")
+
+
+def rows(comparison: Comparison) -> list[tuple]:
+    """Table rows: one per pair, worst quantity first."""
+    out = [("test case", "run", "outcome", "min C", "worst quantity", "max rel dev", "first bad step",
+            "stepping B/A")]
+    order = {"new_failure": 0, "inconsistent": 1, "fixed": 2, "still_failing": 3, "only_a": 4, "only_b": 5,
+             "consistent": 6}
+    for pair in sorted(comparison.pairs, key=lambda p: (order[p.outcome], p.testcase, p.run)):
+        worst = min(pair.quantities, key=lambda q: (q.value is not None, q.value or 0.0), default=None)
+        detail = ""
+        if pair.outcome in ("new_failure", "still_failing", "fixed"):
+            failed = pair.b if pair.outcome != "fixed" else pair.a
+            detail = f"{failed.failure_reason}: {failed.failure_message[:60]}"
+        out.append((pair.testcase, pair.run, pair.outcome, _c(pair.lowest_c),
+                    worst.quantity if worst is not None and pair.bad else detail,
+                    _dev(max((q.max_relative_deviation for q in pair.quantities
+                              if q.max_relative_deviation is not None), default=None)),
+                    f"{worst.first_bad_step:g}" if worst is not None and worst.first_bad_step is not None else "-",
+                    f"{pair.time_ratio:.3f}" if pair.time_ratio else "-"))
+    return out
+
+
+def summary(comparison: Comparison) -> str:
+    counts = comparison.counts()
+    ratio = comparison.time_ratio
+    return (f"{comparison.label_b} ({comparison.commit_b[:10]}) against {comparison.label_a} "
+            f"({comparison.commit_a[:10]}): {counts['consistent']} consistent, {counts['inconsistent']} "
+            f"inconsistent, {counts['new_failure']} new failures, {counts['fixed']} fixed, "
+            f"{counts['still_failing']} still failing"
+            + (f", {counts['only_a'] + counts['only_b']} without a partner" if counts['only_a'] + counts['only_b']
+               else "")
+            + (f"; stepping time B/A {ratio:.3f} (geometric mean)" if ratio else ""))
+
+
+def markdown(comparison: Comparison) -> str:
+    """The comparison as a merge-request comment."""
+    verdict = "**failed**" if comparison.failed else "passed"
+    lines = [f"### {comparison.label_b} against {comparison.label_a}: {verdict}", "", summary(comparison), ""]
+    table = rows(comparison)
+    lines.append("| " + " | ".join(table[0]) + " |")
+    lines.append("|" + "---|" * len(table[0]))
+    for row in table[1:]:
+        lines.append("| " + " | ".join(str(cell).replace("|", "\\|") for cell in row) + " |")
+    return "\n".join(lines) + "\n"
