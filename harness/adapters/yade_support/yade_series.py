@@ -1,0 +1,187 @@
+"""The series a YADE script writes for the harness, the same files the bundled engine writes.
+
+    import yade_series as series
+
+    v = series.variables(steps=1000, thermo_every=10)    # NAME=VALUE script arguments, typed like the defaults
+    thermo = series.Thermo(every=v["thermo_every"])        # thermo.csv: step,time,atoms,ke,rke
+    O.engines = [ForceResetter(), InsertionSortCollider([...]), InteractionLoop([...], [...], [...]),
+                 thermo.engine(),                          # between the forces and the integrator
+                 NewtonIntegrator(damping=0, gravity=(0, 0, -9.81))]
+    series.run(v["steps"], thermo)                         # steps 0..steps sampled; timing.json written
+
+Files (in the working directory, the harness' run folder):
+
+``thermo.csv``
+    ``step,time,atoms,ke,rke`` (+ columns of ``Thermo(extra={name: function})``), a row every ``every``
+    iterations from step 0. atoms = dynamic spheres; ke = sum 1/2 m |v|^2 (J); rke = sum 1/2 I_k w_k^2 (J,
+    principal inertia ``state.inertia``; 2/5 m r^2 for a sphere).
+``timing.json``
+    seconds: ``total`` (wall time of the iterations), and with ``O.timingEnabled`` (the default of ``run``)
+    the engines' ``execTime`` summed as pair (InteractionLoop), neigh (collider), modify (NewtonIntegrator),
+    output (PyRunner, VTKRecorder), other (everything else).
+
+Velocities at full steps. YADE's NewtonIntegrator is a leap-frog: a body's ``state.vel`` is v(t - dt/2)
+while the forces F(t) of the positions x(t) are computed (YADE docs, "Motion integration"). The sampler runs
+after InteractionLoop and before NewtonIntegrator and reports the velocity-Verlet full-step value the codes
+it is compared with print, v(t) = v(t - dt/2) + dt/2 (F(t)/m + g), w(t) = w(t - dt/2) + dt/2 T(t)/I, at step
+``O.iter`` (t = O.iter dt). With NewtonIntegrator.damping != 0 this shift leaves YADE's damping out.
+Because the sample of step N is taken inside iteration N + 1, ``run(N)`` runs N + 1 iterations (the last
+one's integration is not sampled).
+"""
+import json
+import math
+import sys
+import time
+
+__all__ = ["variables", "Thermo", "run", "write_timing", "start_at_full_step"]
+
+_SAMPLERS = {}
+
+
+def variables(**defaults):
+    """Script arguments ``NAME=VALUE`` (the harness passes a run.config's ``variables`` so) over ``defaults``.
+
+    A value is converted to the type of its default (int, float, bool: 1/true/yes, str). An argument that
+    names no default, or a value that does not convert, stops the script with an error naming it.
+    """
+    values = dict(defaults)
+    for word in sys.argv[1:]:
+        if "=" not in word:
+            continue
+        name, value = word.split("=", 1)
+        if name not in defaults:
+            raise SystemExit(f"variable {name!r} given but the script knows only {', '.join(sorted(defaults))}")
+        default = defaults[name]
+        try:
+            if isinstance(default, bool):
+                values[name] = value.strip().lower() in ("1", "true", "yes")
+            elif isinstance(default, int):
+                values[name] = int(float(value)) if float(value).is_integer() else int(value)
+            elif isinstance(default, float):
+                values[name] = float(value)
+            else:
+                values[name] = value
+        except ValueError:
+            raise SystemExit(f"variable {name}={value!r}: not a {type(default).__name__}") from None
+    return values
+
+
+class Thermo:
+    """Thermo rows every ``every`` iterations into ``file`` (``thermo.csv``), sampled by ``engine()``."""
+
+    def __init__(self, every=100, file="thermo.csv", extra=None):
+        if int(every) < 1:
+            raise SystemExit(f"Thermo(every={every}): must be at least 1")
+        self.every = int(every)
+        self.file = file
+        self.extra = dict(extra or {})
+        self.handle = open(file, "w", encoding="utf-8")
+        self.handle.write(",".join(["step", "time", "atoms", "ke", "rke", *self.extra]) + "\n")
+        self.last_step = None
+        self.key = f"_yade_series_sampler_{id(self)}"
+        self.limit = None
+
+    def engine(self):
+        """A PyRunner that samples each ``every`` iterations; put it after InteractionLoop, before Newton."""
+        from yade.wrapper import PyRunner
+        import __main__
+
+        __main__.__dict__[self.key] = self
+        return PyRunner(command=f"{self.key}.sample()", iterPeriod=self.every, initRun=True, label=self.key)
+
+    def sample(self):
+        """Write the row of step ``O.iter`` (see the module docstring for the full-step velocities)."""
+        from yade.wrapper import Omega, NewtonIntegrator, Sphere
+
+        O = Omega()
+        step = O.iter
+        if step == self.last_step or (self.limit is not None and step > self.limit):
+            return
+        dt = O.dt
+        gravity = (0.0, 0.0, 0.0)
+        for engine in O.engines:
+            if isinstance(engine, NewtonIntegrator):
+                gravity = tuple(engine.gravity)
+        atoms, ke, rke = 0, 0.0, 0.0
+        for body in O.bodies:
+            if body is None or not body.dynamic or not isinstance(body.shape, Sphere):
+                continue
+            state = body.state
+            m = state.mass
+            force, torque = O.forces.f(body.id), O.forces.t(body.id)
+            inertia = state.inertia
+            v = [state.vel[k] + 0.5 * dt * (force[k] / m + gravity[k]) for k in range(3)]
+            w = [state.angVel[k] + 0.5 * dt * torque[k] / inertia[k] if inertia[k] > 0 else state.angVel[k]
+                 for k in range(3)]
+            atoms += 1
+            ke += 0.5 * m * (v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
+            rke += 0.5 * (inertia[0] * w[0] ** 2 + inertia[1] * w[1] ** 2 + inertia[2] * w[2] ** 2)
+        row = [step, step * dt, atoms, ke, rke] + [function() for function in self.extra.values()]
+        self.handle.write(",".join(repr(float(x)) if isinstance(x, float) else str(x) for x in row) + "\n")
+        self.last_step = step
+
+    def close(self):
+        self.handle.flush()
+        self.handle.close()
+
+
+def start_at_full_step():
+    """Make the initial velocities full-step values, as velocity-Verlet codes read them.
+
+    YADE's leap-frog reads ``state.vel`` at iteration 0 as v(-dt/2); a scene that sets v(0) = v0 (as LAMMPS,
+    LIGGGHTS and the bundled engine do) calls this once, after ``O.dt``, the bodies and NewtonIntegrator are
+    set and while no body touches another: v(-dt/2) = v0 - dt/2 g. Then free flight is the same in all codes
+    to round-off (x(dt) = x0 + v0 dt + g dt^2/2).
+    """
+    from yade.wrapper import Omega, NewtonIntegrator
+
+    O = Omega()
+    gravity = next((tuple(e.gravity) for e in O.engines if isinstance(e, NewtonIntegrator)), (0.0, 0.0, 0.0))
+    for body in O.bodies:
+        if body is not None and body.dynamic:
+            body.state.vel = body.state.vel - 0.5 * O.dt * type(body.state.vel)(*gravity)
+
+
+def write_timing(total, file="timing.json"):
+    """timing.json with ``total`` (s) and, with O.timingEnabled, the engines' execTime (ns) per section."""
+    from yade.wrapper import Omega
+
+    O = Omega()
+    timing = {"total": float(total), "pair": 0.0, "neigh": 0.0, "comm": 0.0, "modify": 0.0, "output": 0.0,
+              "other": 0.0}
+    if O.timingEnabled:
+        for engine in O.engines:
+            kind = type(engine).__name__
+            seconds = engine.execTime * 1e-9
+            if kind == "InteractionLoop":
+                timing["pair"] += seconds
+            elif "Collider" in kind:
+                timing["neigh"] += seconds
+            elif kind == "NewtonIntegrator":
+                timing["modify"] += seconds
+            elif kind in ("PyRunner", "VTKRecorder"):
+                timing["output"] += seconds
+            else:
+                timing["other"] += seconds
+    timing = {key: value for key, value in timing.items() if math.isfinite(value)}
+    with open(file, "w", encoding="utf-8") as handle:
+        json.dump(timing, handle)
+    return timing
+
+
+def run(steps, thermo=None, timing=True):
+    """Run ``steps`` iterations (plus the one that samples step ``steps``, see the module docstring) and write
+    timing.json; ``thermo`` (a Thermo) gets its last row and is closed."""
+    from yade.wrapper import Omega
+
+    O = Omega()
+    O.timingEnabled = bool(timing)
+    iterations = int(steps) + (1 if thermo is not None else 0)
+    if thermo is not None:
+        thermo.limit = O.iter + int(steps)
+    start = time.perf_counter()
+    O.run(iterations, True)
+    total = time.perf_counter() - start
+    if thermo is not None:
+        thermo.close()
+    return write_timing(total)
