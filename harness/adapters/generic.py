@@ -1,0 +1,271 @@
+"""The generic adapter: a DEM code without an adapter of its own, described by a JSON file instead of Python.
+
+A target names it as ``"engine": "generic:FILE"`` (FILE absolute, or relative to the project folder). The
+file says how to start the code and where its results land::
+
+    {
+      "description": "our in-house code",
+      "command": ["{executable}", "--input", "{script}", "{variables}", "--log", "{log}"],
+      "variable": ["--set", "{name}={value}"],
+      "log": "run.log",
+      "scripts": ["*.ini"],
+      "thermo": {"csv": "out/energy.csv", "delimiter": ",",
+                 "columns": {"step": "iteration", "atoms": "n", "ke": "E_trans", "rke": "E_rot"}},
+      "timing": {"total": "^Loop took (\\\\S+) s", "pair": "^contacts: (\\\\S+) s"},
+      "errors": ["^ERROR", "^Fatal"],
+      "warnings": ["^WARNING"],
+      "vtk": ["post/*.vtp"]
+    }
+
+``command`` (required): the command line; ``{executable}`` becomes the target's executable (all its words),
+``{script}`` the run's script, ``{log}`` the log file name, ``{variables}`` one copy of ``variable`` per
+run.config variable (default ``["-var", "{name}", "{value}"]``); an mpi run puts the launcher in front.
+``log``: the log file (default ``log.txt``). ``scripts``: glob patterns of the scripts a plain run.config
+``script`` may name for this code (default: any). ``thermo`` (required): either ``csv`` (a file in the run
+folder; ``delimiter`` ``,`` by default, ``whitespace`` for columns separated by blanks) or ``log_pattern`` (a
+regular expression with named groups, one row per matching line of the log, or of ``file``), and
+``columns``, the code's names for step, atoms, ke, rke (unmapped ones must be printed under those names).
+``timing``: per harness timing key (total, pair, neigh, comm, modify, output, other) a regular expression
+whose first group is seconds, summed over the log's matching lines. ``errors`` / ``warnings``: regular
+expressions for log, stdout and stderr lines (defaults ``^ERROR`` / ``^WARNING``). ``vtk``: glob patterns of
+the particle dumps (VTK files), in step order.
+
+Every problem of the file is one line naming it and the JSON path (``harness.jsonfile``).
+"""
+from __future__ import annotations
+
+import fnmatch
+import re
+from pathlib import Path
+
+from harness.adapters.base import EngineAdapter, LogScan, UserError
+
+TIMING_KEYS = ("pair", "neigh", "comm", "modify", "output", "other", "total")
+KNOWN = {"description", "command", "variable", "log", "scripts", "thermo", "timing", "errors", "warnings", "vtk"}
+THERMO_KNOWN = {"csv", "delimiter", "log_pattern", "file", "columns"}
+
+
+def _strings(problems, where: str, value, what: str = "a list of strings") -> bool:
+    from harness.jsonfile import expect_type
+
+    if not expect_type(problems, where, value, list, what):
+        return False
+    ok = True
+    for i, item in enumerate(value):
+        ok &= expect_type(problems, f"{where}[{i}]", item, str, "a string")
+    return ok
+
+
+def _regex(problems, where: str, value) -> None:
+    from harness.jsonfile import expect_type
+
+    if expect_type(problems, where, value, str, "a regular expression (string)"):
+        try:
+            re.compile(value)
+        except re.error as exc:
+            problems.add(where, f"not a regular expression ({exc})")
+
+
+def validate(data, path: Path) -> None:
+    """Raise a UserError listing every problem of a generic adapter file (``$.json.path: what``)."""
+    from harness.jsonfile import Problems, expect_type, json_path
+
+    problems = Problems(path)
+    if not isinstance(data, dict):
+        problems.add("$", "a generic adapter file must be a JSON object")
+        problems.raise_if_any()
+    for key in sorted(set(data) - KNOWN):
+        problems.add(json_path(key), f"unknown field (known: {', '.join(sorted(KNOWN))})")
+    if "command" not in data:
+        problems.add(json_path("command"), "required: the command line, e.g. [\"{executable}\", \"{script}\"]")
+    elif _strings(problems, json_path("command"), data["command"]) and "{script}" not in " ".join(data["command"]):
+        problems.add(json_path("command"), "must contain {script}")
+    if "variable" in data:
+        _strings(problems, json_path("variable"), data["variable"])
+    for key in ("log", "description"):
+        if key in data:
+            expect_type(problems, json_path(key), data[key], str, "a string")
+    for key in ("scripts", "vtk"):
+        if key in data:
+            _strings(problems, json_path(key), data[key], "a list of glob patterns")
+    for key in ("errors", "warnings"):
+        if key in data and _strings(problems, json_path(key), data[key], "a list of regular expressions"):
+            for i, pattern in enumerate(data[key]):
+                _regex(problems, json_path(key, i), pattern)
+    thermo = data.get("thermo")
+    if thermo is None:
+        problems.add(json_path("thermo"), "required: {\"csv\": FILE} or {\"log_pattern\": REGEX}, with columns")
+    elif expect_type(problems, json_path("thermo"), thermo, dict, "an object"):
+        for key in sorted(set(thermo) - THERMO_KNOWN):
+            problems.add(json_path("thermo", key), f"unknown field (known: {', '.join(sorted(THERMO_KNOWN))})")
+        if ("csv" in thermo) == ("log_pattern" in thermo):
+            problems.add(json_path("thermo"), "needs exactly one of csv and log_pattern")
+        for key in ("csv", "delimiter", "file"):
+            if key in thermo:
+                expect_type(problems, json_path("thermo", key), thermo[key], str, "a string")
+        if "log_pattern" in thermo:
+            _regex(problems, json_path("thermo", "log_pattern"), thermo["log_pattern"])
+            if isinstance(thermo["log_pattern"], str) and "(?P<" not in thermo["log_pattern"]:
+                problems.add(json_path("thermo", "log_pattern"), "needs named groups, e.g. (?P<step>\\d+)")
+        if "columns" in thermo and expect_type(problems, json_path("thermo", "columns"), thermo["columns"], dict,
+                                               "an object: harness name -> the code's column"):
+            for name, column in thermo["columns"].items():
+                expect_type(problems, json_path("thermo", "columns", name), column, str, "a column name")
+    timing = data.get("timing", {})
+    if expect_type(problems, json_path("timing"), timing, dict, "an object: timing key -> regular expression"):
+        for key, pattern in timing.items():
+            if key not in TIMING_KEYS:
+                problems.add(json_path("timing", key), f"unknown timing key (known: {', '.join(TIMING_KEYS)})")
+            else:
+                before = len(problems.messages)
+                _regex(problems, json_path("timing", key), pattern)
+                if len(problems.messages) == before and isinstance(pattern, str) and re.compile(pattern).groups < 1:
+                    problems.add(json_path("timing", key), "needs a group holding the seconds")
+    problems.raise_if_any()
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        return float("nan")
+
+
+class GenericAdapter(EngineAdapter):
+    """An adapter whose command line and output files come from a JSON description (module docstring)."""
+
+    def __init__(self, config: dict, name: str = "generic", source: str = "generic adapter"):
+        self.config = config
+        self.name = name
+        self.source = source
+        thermo = config.get("thermo", {})
+        self.default_thermo_columns = dict(thermo.get("columns", {}))
+
+    @classmethod
+    def from_file(cls, file: str) -> "GenericAdapter":
+        """The adapter described by ``file`` (absolute, or relative to the project folder); its name is
+        ``generic:FILE`` as written, so that a run record names the same adapter again."""
+        from harness.jsonfile import load_json
+        from harness.workspace import PROJECT_ROOT
+
+        if not file:
+            raise UserError("engine 'generic:': name the adapter file, e.g. generic:targets/adapters/mycode.json")
+        path = Path(file).expanduser()
+        if not path.is_absolute():
+            path = PROJECT_ROOT / path
+        if not path.is_file():
+            raise UserError(f"{path}: generic adapter file not found (engine 'generic:{file}')")
+        data = load_json(path)
+        validate(data, path)
+        return cls(data, name=f"generic:{file}", source=str(path))
+
+    # -- command line -----------------------------------------------------------------------------------
+    def command(self, executable, script, variables, log, mpi=None):
+        template = self.config["command"]
+        per_variable = self.config.get("variable", ["-var", "{name}", "{value}"])
+        command = list(mpi or [])
+        for word in template:
+            if word == "{executable}":
+                command += list(executable)
+            elif word == "{variables}":
+                for name, value in (variables or {}).items():
+                    command += [w.replace("{name}", str(name)).replace("{value}", str(value)) for w in per_variable]
+            else:
+                command.append(word.replace("{script}", script).replace("{log}", log))
+        return command
+
+    def log_file(self) -> str:
+        return self.config.get("log", "log.txt")
+
+    def accepts_script(self, script: str) -> bool:
+        patterns = self.config.get("scripts")
+        return True if not patterns else any(fnmatch.fnmatch(Path(script).name, p) for p in patterns)
+
+    # -- results ----------------------------------------------------------------------------------------
+    def _log_lines(self, folder: Path, name: str | None = None) -> list[str]:
+        path = Path(folder) / (name or self.log_file())
+        try:
+            return path.read_text(errors="replace").splitlines()
+        except FileNotFoundError:
+            raise UserError(f"{path}: no log (did the run start?)") from None
+
+    def read_thermo(self, folder, mapping=None):
+        """The thermo table from the CSV file or the log lines the description names, mapped onto step,
+        atoms, ke, rke (``thermo_columns`` of target/run.config first, then the description's ``columns``)."""
+        import pandas as pd
+
+        folder = Path(folder)
+        thermo = self.config["thermo"]
+        if "csv" in thermo:
+            path = folder / thermo["csv"]
+            if not path.is_file():
+                raise UserError(f"{path}: no thermo output (thermo.csv of {self.source})")
+            delimiter = thermo.get("delimiter", ",")
+            try:
+                if delimiter == "whitespace":
+                    table = pd.read_csv(path, sep=r"\s+", encoding_errors="replace")
+                else:
+                    table = pd.read_csv(path, sep=delimiter, skipinitialspace=True, encoding_errors="replace")
+            except (pd.errors.EmptyDataError, pd.errors.ParserError) as exc:
+                raise UserError(f"{path}: unreadable ({str(exc).splitlines()[0]})") from None
+            table.columns = [str(c).strip() for c in table.columns]
+            source = str(path)
+        else:
+            name = thermo.get("file") or self.log_file()
+            pattern = re.compile(thermo["log_pattern"])
+            rows = [{k: _number(v) for k, v in m.groupdict().items() if v is not None}
+                    for line in self._log_lines(folder, name) if (m := pattern.search(line))]
+            table = pd.DataFrame(rows)
+            source = str(folder / name)
+        if table.empty:
+            raise UserError(f"{source}: no thermo rows")
+        return self.map_thermo(table, mapping, source)
+
+    def read_timing(self, folder):
+        """Seconds per timing key: the first group of the key's pattern, summed over the log's lines."""
+        timing = {key: 0.0 for key in TIMING_KEYS}
+        patterns = {key: re.compile(p) for key, p in self.config.get("timing", {}).items()}
+        if not patterns:
+            return timing
+        try:
+            lines = self._log_lines(Path(folder))
+        except UserError:
+            return timing
+        for line in lines:
+            for key, pattern in patterns.items():
+                m = pattern.search(line)
+                if m:
+                    value = _number(m.group(1))
+                    if value == value:
+                        timing[key] += value
+        return timing
+
+    def scan_log(self, folder) -> LogScan:
+        """Lines of the log, stdout and stderr matching ``errors`` (each once) and the log's ``warnings``."""
+        folder = Path(folder)
+        errors = [re.compile(p) for p in self.config.get("errors", ["^ERROR"])]
+        warnings = [re.compile(p) for p in self.config.get("warnings", ["^WARNING"])]
+        scan = LogScan()
+        log = folder / self.log_file()
+        for source in [log] + sorted(p for p in folder.glob("std*") if p.is_file()):
+            if not source.is_file():
+                continue
+            for line in source.read_text(errors="replace").splitlines():
+                text = line.strip()
+                if any(p.search(text) for p in errors):
+                    if text not in scan.errors:
+                        scan.errors.append(text)
+                elif source == log and any(p.search(text) for p in warnings):
+                    scan.warnings.append(text)
+        return scan
+
+    def vtk_files(self, folder):
+        from harness.postprocess import dump_step
+
+        folder = Path(folder)
+        found = []
+        for order, pattern in enumerate(self.config.get("vtk", [])):
+            for path in folder.glob(pattern):
+                if path.is_file() and path not in [f for _, _, f in found]:
+                    found.append((dump_step(path) or 0, order, path))
+        return [path for _, _, path in sorted(found)]
