@@ -12,11 +12,12 @@ inconsistency: the JUnit report and the exit code honour it, the stored level st
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from harness import junit
 from harness.adapters.base import UserError
+from harness.junit import provenance  # noqa: F401  (what a verdict was computed on; the dashboard shows it)
 from harness.builds import current_build
 from harness.consistency import FAILING_LEVELS, QuantityResult, compare_runs, run_level
 from harness.rules import find_reference_run, override_keys, stale_reference
@@ -184,54 +185,9 @@ def check_targets(targets, machine: str) -> CheckReport:
     return report
 
 
-def provenance(run) -> str:
-    """What a verdict was computed on: target and commit, reference and its commit, test case content."""
-    text = f"{run.target.name} at {run.build.commit[:10]}, test case {run.short_hash or '-'}"
-    reference = run.reference_run
-    if reference is not None:
-        text += f"; reference {reference.target.name} at {reference.build.commit[:10]}"
-    return text
-
-
-def _log_tail(run) -> str:
-    record = Path(run.folder or "/nonexistent") / "run.json"
-    try:
-        data = json.loads(record.read_text(encoding="utf-8"))
-        return data.get("log_tail", "")
-    except (OSError, ValueError):
-        return ""
-
-
 def junit_xml(report: CheckReport) -> str:
-    """JUnit XML for Jenkins: a suite per target and test case folder, a test per run."""
-    from junit_xml import TestCase, TestSuite, to_xml_report_string
-
-    suites: dict[tuple[str, str], list] = {}
-    for verdict in report.verdicts:
-        run = verdict.run
-        classname = f"{run.target.name}.{run.testcase.path.replace('/', '.')}"
-        case = TestCase(run.name, classname=classname, elapsed_sec=run.wall_time or 0.0,
-                        stdout=_log_tail(run), timestamp=run.started.isoformat() if run.started else None)
-        notes = [provenance(run)]
-        if verdict.results:
-            lowest = min((r.value for r in verdict.results if r.value is not None), default=None)
-            notes.append(f"consistency {run.consistency}" + (f", lowest C = {lowest:.4g}" if lowest is not None
-                                                              else ""))
-        notes += [f"overridden: {text}" for text in verdict.overridden]
-        if verdict.message and verdict.status != "failed":
-            notes.append(verdict.message)
-        if notes:
-            case.stdout = "\n".join(notes) + ("\n--- log tail ---\n" + case.stdout if case.stdout else "")
-        if verdict.status == "failed":
-            case.add_failure_info(message=verdict.message[:2000], output=verdict.message,
-                                  failure_type=verdict.kind or "failure")
-        elif verdict.status == "skipped":
-            case.add_skipped_info(message=verdict.message)
-        suites.setdefault((run.target.name, run.testcase.path), []).append(case)
-    commits = {v.run.target.name: v.run.build.commit for v in report.verdicts}
-    return to_xml_report_string([TestSuite(f"{target}/{path}", cases, properties={"target": target,
-                                                                                 "commit": commits[target]})
-                                 for (target, path), cases in suites.items()])
+    """JUnit XML of a check (``harness.junit``, the writer the dashboard uses too)."""
+    return junit.junit_xml(report.verdicts)
 
 
 def write_junit(report: CheckReport, path: Path) -> None:
