@@ -142,9 +142,11 @@ def current_content(target) -> dict[tuple[str, str], str] | None:
     return {(t.path, e.name): t.content_hash(e.name) for t in testcases for e in t.runs if not e.problems}
 
 
-def check_targets(targets, machine: str) -> CheckReport:
-    """Check every run of each target's current build at the test case content of now; failed and stale
-    runs are reported too."""
+def check_targets(targets, machine: str, pattern: str | None = None) -> CheckReport:
+    """Check every run of each target's current build at the test case content of now (``pattern``: only
+    runs whose ``testcase/run`` match, as ``-k``); failed and stale runs are reported too."""
+    from harness.testcases import matches
+
     from harness.models import Run
 
     report = CheckReport()
@@ -163,6 +165,8 @@ def check_targets(targets, machine: str) -> CheckReport:
         content = current_content(target)
         stale_before = len(report.stale_references)
         for run in runs:
+            if not matches(pattern, run.testcase.path, run.name):
+                continue
             now = content.get((run.testcase.path, run.name)) if content is not None else run.testcase_hash
             if now is None:
                 continue  # the run configuration no longer exists

@@ -29,7 +29,7 @@ def restored_state(run) -> str:
         return "failed"
     if run.finished is None:
         return "not_executed"
-    return "post_processed"
+    return "consistency_checked" if run.consistency in (*CONSISTENT_LEVELS, "inconsistent") else "post_processed"
 
 
 def effective_state(run) -> str:

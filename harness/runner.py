@@ -294,6 +294,23 @@ def _release(task: Task) -> None:
         task.lock.release()
 
 
+def _started(task: Task, since: float, done: int, total: int, durations: list, slots: int, out) -> None:
+    """A line as a run starts: elapsed time and, once runs have finished, an estimate of what is left
+    (mean run time so far x runs left / parallel slots)."""
+    elapsed = time.monotonic() - since
+    left = ""
+    if durations:
+        estimate = sum(durations) / len(durations) * (total - done) / max(slots, 1)
+        left = f", about {_duration(estimate)} left"
+    target, testcase, run, commit = task.key
+    out.write(f"start {target}@{commit[:10]} {testcase}/{run} ({_duration(elapsed)} elapsed{left})\n")
+    out.flush()
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
+
+
 def _record_key(record: dict) -> tuple:
     return (record["target"], record["testcase"], record["run"], (record.get("build") or {}).get("commit", ""))
 
@@ -313,6 +330,8 @@ def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out
     done_count = 0
     results: dict[tuple, dict] = {}
     waiting: set = set()
+    durations: list[float] = []
+    started = time.monotonic()
 
     def finish(record: dict, task: Task | None = None) -> None:
         nonlocal done_count
@@ -323,6 +342,7 @@ def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out
                 _release(task)
         report.records.append(record)
         results[_record_key(record)] = record
+        durations.append(record.get("wall_time") or 0.0)
         done_count += 1
         _progress(done_count, total, record, out)
 
@@ -380,6 +400,7 @@ def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out
                 in_flight["started"] = ex.now_iso()
                 store_record(in_flight)
                 running[pool.submit(task.spec)] = task
+                _started(task, started, done_count, total, durations, pool.slots, out)
             if not running:
                 if pending and not submitted:
                     time.sleep(0.2)  # every remaining run is held by another process

@@ -1,4 +1,8 @@
-"""``harness list [TARGET ...] [--state STATE] [--all-builds]``: runs in the store with their state."""
+"""``harness list [TARGET ...] [--state STATE] [-k PATTERN] [-q] [--json] [--all-builds]``: runs in the store.
+
+Exit code 5 when a selection (targets, state, pattern) matches no run."""
+import json
+
 NAME = "list"
 HELP = "list runs of the current builds with their state, commit and test case content"
 
@@ -6,6 +10,10 @@ HELP = "list runs of the current builds with their state, commit and test case c
 def configure(parser):
     parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names (default: all)")
     parser.add_argument("--state", help="only runs in this state (failed, post_processed, outdated, ...)")
+    parser.add_argument("-k", dest="pattern", metavar="PATTERN", help="only runs whose 'testcase/run' match")
+    parser.add_argument("-q", dest="quiet", action="store_true",
+                        help="only runs that failed or are inconsistent")
+    parser.add_argument("--json", action="store_true", help="print the runs as JSON")
     parser.add_argument("--all-machines", action="store_true", help="runs of every machine, not only this one")
     parser.add_argument("--all-builds", action="store_true",
                         help="also runs of earlier builds and of earlier test case content (outdated)")
@@ -15,10 +23,20 @@ def run(args) -> int:
     from harness.store import setup_store
 
     setup_store()
+    from harness.adapters.base import UserError
     from harness.builds import current_build
-    from harness.models import Run
+    from harness.models import Run, Target
     from harness.runner import format_table
+    from harness.runrecord import STATES, finite
     from harness.targets import load_targets
+    from harness.testcases import matches
+
+    if args.state and args.state not in STATES:
+        raise UserError(f"--state: unknown state {args.state!r} (known: {', '.join(STATES)})")
+    unknown = sorted(set(args.targets) - set(Target.objects.filter(name__in=args.targets)
+                                             .values_list("name", flat=True)))
+    if unknown:
+        raise UserError(f"unknown target {unknown[0]!r} (no runs of it in the store)")
 
     runs = Run.objects.select_related("target", "testcase", "build", "machine").order_by(
         "target__name", "testcase__path", "name", "-id")
@@ -34,11 +52,22 @@ def run(args) -> int:
         for definition in definitions.values():
             current_build(definition, args.machine)  # resolves the revision now and records it
         runs = runs.filter(build__current=True, replaced=False)
-    rows = [("machine", "target", "commit", "test case", "run", "content", "state", "reason", "consistency",
-             "wall s")]
-    for r in runs:
-        rows.append((r.machine.name, r.target.name, r.build.commit[:10], r.testcase.path, r.name,
-                     r.short_hash or "-", r.state, r.failure_reason or "", r.consistency or "",
-                     f"{r.wall_time:.2f}" if r.wall_time is not None else "-"))
-    print(format_table(rows) if len(rows) > 1 else "no runs")
-    return 0
+    matched = [r for r in runs if matches(args.pattern, r.testcase.path, r.name)]
+    selected = [r for r in matched if not args.quiet or r.state == "failed" or r.consistency == "inconsistent"]
+    if args.json:
+        print(json.dumps(finite([{
+            "machine": r.machine.name, "target": r.target.name, "commit": r.build.commit,
+            "testcase": r.testcase.path, "run": r.name, "testcase_hash": r.testcase_hash, "state": r.state,
+            "failure_reason": r.failure_reason, "consistency": r.consistency, "lowest_c": r.consistency_min,
+            "wall_time": r.wall_time, "stepping_time": r.stepping_time, "folder": r.folder} for r in selected]),
+            indent=1, allow_nan=False))
+    else:
+        rows = [("machine", "target", "commit", "test case", "run", "content", "state", "reason", "consistency",
+                 "wall s", "stepping s")]
+        for r in selected:
+            rows.append((r.machine.name, r.target.name, r.build.commit[:10], r.testcase.path, r.name,
+                         r.short_hash or "-", r.state, r.failure_reason or "", r.consistency or "",
+                         f"{r.wall_time:.2f}" if r.wall_time is not None else "-",
+                         f"{r.stepping_time:.3f}" if r.stepping_time is not None else "-"))
+        print(format_table(rows) if len(rows) > 1 else "no runs")
+    return 5 if not matched and (args.targets or args.state or args.pattern) else 0

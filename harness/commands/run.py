@@ -56,7 +56,9 @@ def run(args) -> int:
     print(f"{len(report.records)} runs: {len(report.records) - failed} ok, {failed} failed, "
           f"{report.skipped} already done (use --all to run them again); {len(report.problems)} problems; "
           f"{report.elapsed:.1f} s")
-    return 1 if failed or report.problems else 0
+    if failed or report.problems:
+        return 1
+    return 5 if not report.records and not report.skipped else 0  # the selection matched nothing (as pytest)
 
 
 def with_references(targets):

@@ -1,10 +1,13 @@
-"""``harness status``: per target, its current build and how many runs of it are in each state."""
+"""``harness status [TARGET ...] [--json]``: per target, its current build and its runs per state."""
+import json
+
 NAME = "status"
 HELP = "summary per target: current build (commit) and its runs per state"
 
 
 def configure(parser):
     parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names (default: all)")
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
 
 
 def run(args) -> int:
@@ -24,6 +27,7 @@ def run(args) -> int:
         targets = targets.filter(name__in=args.targets)
     states = [s for s, _ in Run.State.choices]
     rows = [("target", "reference", "revision", "current build", *states, "older")]
+    summary = []
     for target in targets:
         # a target with a definition file: its revision resolved now; an imported one: as recorded
         definition = definitions.get(target.name)
@@ -35,5 +39,14 @@ def run(args) -> int:
         revision = definition.revision if definition else "-"
         rows.append((target.name, target.reference.name if target.reference else "-", revision,
                      build.commit[:10] if build else "not built", *(counts.get(s, 0) for s in states), older))
-    print(format_table(rows) if len(rows) > 1 else "no targets in the store")
+        summary.append({"target": target.name, "reference": target.reference.name if target.reference else None,
+                        "revision": definition.revision if definition else None,
+                        "commit": build.commit if build else None, "states": {s: counts.get(s, 0) for s in states},
+                        "older_builds_runs": older})
+    if args.json:
+        print(json.dumps(summary, indent=1))
+    else:
+        print(format_table(rows) if len(rows) > 1 else "no targets in the store")
+    if args.targets and not summary:
+        return 5
     return 0

@@ -1,0 +1,47 @@
+"""``harness ci [TARGET ...] [--junit FILE] [-k PATTERN] [-j N]``: the whole CI job in one command.
+
+Builds the targets (and their reference targets), runs what is not yet run for the test case content of
+now, checks consistency against the references, writes JUnit XML, and exits with one code: 0 all passed,
+1 something failed, is inconsistent or stale, or an input file is broken, 5 nothing was selected.
+See docs/ci.md for Jenkins and GitLab/GitHub set-ups.
+"""
+import sys
+
+NAME = "ci"
+HELP = "build, run, check and write JUnit XML in one command, with one exit code"
+
+
+def configure(parser):
+    from harness.commands.run import add_selection
+
+    add_selection(parser)
+    parser.add_argument("--junit", metavar="FILE", default="junit.xml", help="JUnit XML file (default junit.xml)")
+    parser.add_argument("--rerun-failed", action="store_true", help="run failed runs again")
+
+
+def run(args) -> int:
+    from harness.store import setup_store
+
+    setup_store()
+    from harness.check import check_targets, write_junit
+    from harness.commands.run import with_references
+    from harness.revisions import expand
+    from harness.runner import RunOptions, run_targets
+
+    targets, problems = expand(args.targets, args.targets_dir)
+    everything = with_references(targets) if args.targets else targets
+    options = RunOptions(machine=args.machine, pattern=args.pattern, jobs=args.jobs,
+                         rerun_failed=args.rerun_failed, working_tree=args.working_tree)
+    ran = run_targets(everything, options)
+    report = check_targets(targets, args.machine, pattern=args.pattern)
+    report.problems[:0] = problems + ran.problems
+    for problem in report.problems:
+        print(f"harness: {problem}", file=sys.stderr)
+    write_junit(report, args.junit)
+    counts = {s: sum(v.status == s for v in report.verdicts) for s in ("passed", "failed", "skipped")}
+    print(f"ci: {len(ran.records)} runs executed ({len(ran.failed)} failed), {ran.skipped} already done; "
+          f"{len(report.verdicts)} checked: {counts['passed']} passed, {counts['failed']} failed, "
+          f"{counts['skipped']} skipped; {len(report.problems)} problems; JUnit XML: {args.junit}")
+    if not report.verdicts and not report.problems:
+        return 5
+    return 1 if counts["failed"] or report.problems or ran.failed else 0
