@@ -120,3 +120,51 @@ def test_bisect_finds_a_planted_change_to_the_bundled_engine(tmp_path):
     assert result.returncode == 0, result.stdout + result.stderr
     assert f"first bad commit: {broken}" in result.stdout
     assert "halve the tangential damping" in result.stdout
+
+
+def test_speed_detector_marks_a_step_and_ignores_noise():
+    from harness.regressions import speed_changes
+
+    noisy = [1.0, 1.04, 0.97, 1.02, 0.99, 1.03, 0.98]
+    assert speed_changes(noisy) == []
+    stepped = noisy + [1.5, 1.52]
+    marked = speed_changes(stepped)
+    assert [i for i, _ in marked] == [7] and marked[0][1] == pytest.approx(1.5 / (sum(noisy[2:7]) / 5))
+
+
+def test_regressions_marks_the_commits_where_physics_and_speed_changed(tmp_path, monkeypatch):
+    repo = git_repo(tmp_path / "repo")
+    # a history is ordered by commit date: one commit a day, as in a real history (GitPython reads these)
+    day = iter(range(1, 20))
+
+    def commit_daily(*args, **kwargs):
+        date = f"2026-01-{next(day):02d}T12:00:00"
+        monkeypatch.setenv("GIT_AUTHOR_DATE", date)
+        monkeypatch.setenv("GIT_COMMITTER_DATE", date)
+        return commit_files(*args, **kwargs)
+
+    source = fake_engine_source(9.81)
+    commits = [commit_daily(repo, {"engine/__init__.py": "", "engine/__main__.py": source,
+                                   "cases/fall/scene.json": scene(1.0, steps=100),
+                                   "cases/fall/run.config": json.dumps({"runs": [{"name": "drop",
+                                                                                  "script": "scene.json"}]})},
+                            "start", tag="first")]
+    for i in range(1, 8):
+        files = {"NOTES.txt": f"{i}\n"}
+        if i == 4:   # physics: gravity 10 % larger from here on
+            source = fake_engine_source(9.81 * 1.1)
+            files["engine/__main__.py"] = source
+        if i == 6:   # speed: the engine reports twice the loop time from here on
+            files["engine/__main__.py"] = source.replace('"total": 0.002', '"total": 0.004')
+        commits.append(commit_daily(repo, files, f"change {i}"))
+    targets = tmp_path / "targets"
+    targets.mkdir()
+    write_target(targets, "t", revision="HEAD", repo=repo)
+    project = {"targets": targets, "home": tmp_path / "home"}
+    _ok(harness(project, "run", "t@first..HEAD", "-j", "2"))
+    _ok(harness(project, "run", "t@first"))
+    changes = json.loads(_ok(harness(project, "regressions", "t", "--json")).stdout)
+    marked = {(c["commit"], c["kind"]) for c in changes}
+    assert marked == {(commits[4], "quantity"), (commits[6], "slower")}
+    quantity = next(c for c in changes if c["kind"] == "quantity")
+    assert quantity["previous_commit"] == commits[3] and "ke C = " in quantity["detail"]

@@ -1,0 +1,37 @@
+"""``harness regressions [TARGET] [-k PATTERN] [--json]``: builds where stepping time or a quantity changed."""
+import json
+
+NAME = "regressions"
+HELP = "mark the commits where a test case's stepping time or physics changed over a target's history"
+
+
+def configure(parser):
+    parser.add_argument("target", nargs="?", metavar="TARGET", help="target name (default: all)")
+    parser.add_argument("-k", dest="pattern", metavar="PATTERN", help="only runs whose 'testcase/run' match")
+    parser.add_argument("--sigma", type=float, default=3.0, help="speed: k in mean +/- k sd (default 3)")
+    parser.add_argument("--window", type=int, default=5, help="speed: previous builds the mean is over (default 5)")
+    parser.add_argument("--min-change", type=float, default=0.1,
+                        help="speed: smallest relative change reported (default 0.1 = 10 %%)")
+    parser.add_argument("--json", action="store_true", help="print the changes as JSON")
+
+
+def run(args) -> int:
+    from harness.store import setup_store
+
+    setup_store()
+    from harness.regressions import histories
+    from harness.runner import format_table
+
+    found = histories(args.machine, args.target, args.pattern, args.sigma, args.window, args.min_change)
+    changes = [(h, c) for h in found for c in h.changes]
+    if args.json:
+        print(json.dumps([{"target": h.target, "testcase": h.testcase, "run": h.run, "commit": c.commit,
+                           "previous_commit": c.previous_commit, "kind": c.kind, "detail": c.detail}
+                          for h, c in changes], indent=1))
+    else:
+        rows = [("target", "test case", "run", "commit", "after", "change", "detail")]
+        for h, c in changes:
+            rows.append((h.target, h.testcase, h.run, c.commit[:10], c.previous_commit[:10], c.kind, c.detail[:100]))
+        print(format_table(rows) if changes else "no changes found")
+        print(f"{len(found)} histories, {sum(len(h.points) for h in found)} runs, {len(changes)} changes")
+    return 5 if not found else 0
