@@ -116,6 +116,13 @@ def build_matrix(targets, machine: str, pattern: str | None = None,
     return matrix
 
 
+def _c(value: float | None) -> str:
+    """C for a table: 4 decimals in [-1, 1], else 3 significant digits (a C of -1e5 says "far off")."""
+    if value is None:
+        return "n/a"
+    return f"{value:.4f}" if -1 <= value <= 1 else f"{value:.3g}"
+
+
 def _short(level: str) -> str:
     return {"perfect": "P", "good": "G", "inconsistent": "I", "length_mismatch": "L", "missing": "M"}.get(level, "?")
 
@@ -143,7 +150,7 @@ def format_matrix(matrix: Matrix) -> str:
                     elif cell is None:
                         row.append("")
                     else:
-                        value = f"{cell.value:.4f}" if cell.value is not None else "n/a"
+                        value = _c(cell.value)
                         row.append(f"{value} {_short(cell.level)}")
                 rows.append(tuple(row))
             blocks.append(format_table(rows))

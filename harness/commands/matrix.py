@@ -25,7 +25,7 @@ def configure(parser):
 
 def run(args) -> int:
     from harness.adapters.base import UserError
-    from harness.matrix import build_matrix, format_matrix, write_csv, write_json
+    from harness.matrix import _c, build_matrix, format_matrix, write_csv, write_json
     from harness.store import setup_store
     from harness.targets import select_targets
     from harness.workspace import workspace
@@ -58,7 +58,7 @@ def run(args) -> int:
     pairs = matrix.lowest()
     print(f"\n{len(matrix.runs)} test case runs, {len(matrix.cells)} cells; lowest C per pair (code | reference):")
     for (code, reference), cell in sorted(pairs.items()):
-        value = f"{cell.value:.4f}" if cell.value is not None else "n/a"
+        value = _c(cell.value)
         print(f"  {code} | {reference}: {value} {cell.level} ({cell.testcase}/{cell.run} {cell.quantity})")
     print(f"matrix written to {folder}")
     if below:
