@@ -32,7 +32,12 @@ A target is a named build of a DEM code at a git revision. Fields (all optional 
 ``thermo_columns``
     mapping of the harness' thermo names onto the engine's column names, e.g. ``{"ke": "KinEng"}``.
 ``mpi_launcher``
-    launcher prefix for mpi runs (default ``["mpirun"]``).
+    launcher prefix for mpi runs (default ``["mpirun"]``), a non-empty list of strings.
+
+The target's name is its file name without ``.json``; it names folders in the workspace, so it must be a
+safe single path segment (``harness.workspace.segment_problem``), as must ``reference`` and every part of
+a relative ``testcases`` folder. A target whose reference chain comes back to itself, or leads into such a
+cycle or to a broken or unknown target, is reported (``$.reference``) and left out.
 """
 from __future__ import annotations
 
@@ -40,11 +45,11 @@ import hashlib
 import json
 import os
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 from harness.adapters.base import UserError
-from harness.jsonfile import Problems, expect_type, json_path, load_json
-from harness.workspace import PROJECT_ROOT
+from harness.jsonfile import Problems, expect_type, json_path, load_json, non_finite_problems
+from harness.workspace import PROJECT_ROOT, segment_problem
 
 WORKING_TREE = "working-tree"
 RECIPES = ("dem", "make", "system")
@@ -116,6 +121,11 @@ def _resolve_repository(value: str | None, base: Path) -> str:
 def parse_target(name: str, data, path: Path) -> TargetDefinition:
     """Validate a target definition; every problem names the file and the JSON path."""
     problems = Problems(path)
+    problem = segment_problem(name)
+    if problem:
+        # the name becomes a folder of the workspace (builds/<name>/, runs/<machine>/<name>/)
+        problems.add("file name", f"target name {problem}")
+    non_finite_problems(problems, data)
     if not isinstance(data, dict):
         problems.add("$", "a target definition must be a JSON object")
         problems.raise_if_any()
@@ -138,7 +148,10 @@ def parse_target(name: str, data, path: Path) -> TargetDefinition:
     testcases = data.get("testcases", ["testcases"])
     if expect_type(problems, json_path("testcases"), testcases, list, "a list of folders"):
         for i, item in enumerate(testcases):
-            expect_type(problems, json_path("testcases", i), item, str, "a folder (string)")
+            if expect_type(problems, json_path("testcases", i), item, str, "a folder (string)"):
+                problem = _testcases_folder_problem(item)
+                if problem:
+                    problems.add(json_path("testcases", i), problem)
     for key in ("make_variables", "thermo_columns"):
         if key in data and expect_type(problems, json_path(key), data[key], dict, "an object"):
             for sub, value in data[key].items():
@@ -148,10 +161,18 @@ def parse_target(name: str, data, path: Path) -> TargetDefinition:
             problems.add(json_path("make_jobs"), "must be at least 1")
     launcher = data.get("mpi_launcher", ["mpirun"])
     if expect_type(problems, json_path("mpi_launcher"), launcher, list, "a list of strings"):
+        if not launcher:
+            problems.add(json_path("mpi_launcher"), 'must hold at least the launcher program, e.g. ["mpirun"]')
         for i, item in enumerate(launcher):
-            expect_type(problems, json_path("mpi_launcher", i), item, str, "a string")
-    if data.get("reference") == name:
-        problems.add(json_path("reference"), "a target cannot be its own reference")
+            if expect_type(problems, json_path("mpi_launcher", i), item, str, "a string") and not item.strip():
+                problems.add(json_path("mpi_launcher", i), "must not be empty")
+    reference = data.get("reference")
+    if isinstance(reference, str):
+        problem = segment_problem(reference)
+        if problem:  # a reference is read from <reference>.json next to this file: a name, never a path
+            problems.add(json_path("reference"), f"target {problem}")
+        elif reference == name:
+            problems.add(json_path("reference"), "a target cannot be its own reference")
     problems.raise_if_any()
 
     base = path.resolve().parent.parent
@@ -173,9 +194,27 @@ def parse_target(name: str, data, path: Path) -> TargetDefinition:
     )
 
 
+def _testcases_folder_problem(folder: str) -> str | None:
+    """Why a ``testcases`` entry cannot name test case folders (None: it can).
+
+    A relative folder's parts become the test case paths, and those name folders in the workspace: each
+    must be a safe name (no ``..``, which would leave the repository). An absolute folder is read as it
+    is; only its last part becomes a name.
+    """
+    if not folder.strip():
+        return "must name a folder"
+    path = PurePosixPath(folder)
+    parts = (path.name,) if path.is_absolute() else path.parts
+    for part in parts:
+        problem = segment_problem(part)
+        if problem:
+            return f"folder {folder!r}: {problem}"
+    return None
+
+
 def load_target_file(path: Path) -> TargetDefinition:
     path = Path(path)
-    return parse_target(path.stem, load_json(path), path)
+    return parse_target(path.stem, load_json(path, strict=False), path)
 
 
 def load_targets(folder: Path | None = None) -> tuple[dict[str, TargetDefinition], list[str]]:
@@ -186,16 +225,48 @@ def load_targets(folder: Path | None = None) -> tuple[dict[str, TargetDefinition
     folder = Path(folder) if folder else targets_dir()
     targets: dict[str, TargetDefinition] = {}
     problems: list[str] = []
+    broken: set[str] = set()
     for path in sorted(folder.glob("*.json")) if folder.is_dir() else []:
         try:
             targets[path.stem] = load_target_file(path)
         except UserError as exc:
             problems.append(str(exc))
-    for name, target in list(targets.items()):
-        if target.reference and target.reference not in targets:
-            problems.append(f"{target.path}: $.reference: unknown target {target.reference!r}")
-            del targets[name]
+            broken.add(path.stem)
+    references = {name: target.reference for name, target in targets.items()}
+    for name in sorted(targets):
+        cycle = _reference_cycle(name, references)
+        if cycle and cycle[0] == name:  # on the cycle; a target leading into one is handled below
+            problems.append(f"{targets[name].path}: $.reference: reference cycle {' -> '.join(cycle)} "
+                            "(a target cannot be compared with itself, also not through others)")
+            broken.add(name)
+    for name in broken & set(targets):
+        del targets[name]
+    # what leads to a left-out target is left out too, until nothing changes (a chain a -> b -> c)
+    changed = True
+    while changed:
+        changed = False
+        for name, target in list(targets.items()):
+            if target.reference and target.reference not in targets:
+                what = (f"target {target.reference!r} is not usable (see the problem of "
+                        f"{target.reference}.json)" if target.reference in broken
+                        else f"unknown target {target.reference!r}")
+                problems.append(f"{target.path}: $.reference: {what}")
+                del targets[name]
+                broken.add(name)
+                changed = True
     return targets, problems
+
+
+def _reference_cycle(start: str, references: dict[str, str | None]) -> list[str] | None:
+    """The cycle ``start`` lies on (``[start, ..., start]``), the cycle its chain runs into (not starting
+    with ``start``), or None when the chain ends."""
+    chain, node = [start], references.get(start)
+    while node is not None and node in references:
+        if node in chain:
+            return chain[chain.index(node):] + [node]
+        chain.append(node)
+        node = references.get(node)
+    return None
 
 
 def select_targets(names: list[str], folder: Path | None = None) -> tuple[list[TargetDefinition], list[str]]:
@@ -228,4 +299,19 @@ def reference_of(target: TargetDefinition, folder: Path | None = None) -> Target
     path = target.path.parent / f"{target.reference}.json"
     if not path.is_file():
         raise UserError(f"{target.path}: $.reference: unknown target {target.reference!r}")
-    return load_target_file(path)
+    reference = load_target_file(path)
+    # a target loaded from its file (not through load_targets) may still sit on a reference cycle: follow
+    # the chain through the files; a broken file further down is the problem of whoever needs it
+    chain, current = [target.name, reference.name], reference
+    while current.reference:
+        if current.reference in chain:
+            cycle = chain[chain.index(current.reference):] + [current.reference]
+            raise UserError(f"{target.path}: $.reference: reference cycle {' -> '.join(cycle)} "
+                            "(a target cannot be compared with itself, also not through others)")
+        following = current.path.parent / f"{current.reference}.json"
+        try:
+            current = load_target_file(following)
+        except UserError:
+            break
+        chain.append(current.name)
+    return reference
