@@ -61,6 +61,10 @@ def validate(entry: dict) -> list[str]:
             if not isinstance(values, list) or not isinstance(sweep.get("values"), list) \
                     or len(values) != len(sweep["values"]):
                 errors.append(f"sweep.with.{name}: must be a list with one value per sweep value")
+                continue
+            for j, value in enumerate(values):  # each becomes -var NAME VALUE of one point
+                if not isinstance(value, (str, int, float)) or isinstance(value, bool):
+                    errors.append(f"sweep.with.{name}[{j}]: must be a string or number, got {value!r}")
     error = sweep.get("error")
     if not isinstance(error, dict):
         errors.append("sweep.error: must be an object with quantity (SERIES.COLUMN) and optionally at, exact")

@@ -14,6 +14,12 @@ of dumps), and the acceptance keys ``expectations`` / ``stability`` (checked by 
 
 A folder without run.config may still be a test case if the adapter supplies a default configuration
 (``EngineAdapter.default_run_config``, e.g. one serial run per LIGGGHTS ``in.*`` script).
+
+Names become folders of the workspace, so run names and test case folder names must be safe single path
+segments (``harness.workspace.segment_problem``); folders with a reserved name (post, restart, meshes,
+scripts, __pycache__) are parts of a test case and never test cases themselves (a run.config in one is
+reported, not silently ignored). Validation never raises for a broken entry: it carries its problems, each
+``FILE: $.runs[i].field: what is wrong``, and is recorded as failed (reason config) while the rest runs.
 """
 from __future__ import annotations
 
@@ -21,14 +27,16 @@ import fnmatch
 import hashlib
 import json
 import os
+import re
+import shlex
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 from harness import gitrepo
 from harness.adapters.base import UserError
-from harness.jsonfile import Problems, expect_type, json_path, load_json
+from harness.jsonfile import Problems, expect_type, has_non_finite, json_path, load_json, non_finite_problems
 from harness.targets import WORKING_TREE, TargetDefinition
-from harness.workspace import RESERVED_NAMES, workspace
+from harness.workspace import RESERVED_NAMES, segment_problem, workspace
 
 RUN_CONFIG = "run.config"
 RUN_TYPES = ("serial", "mpi", "mpi/custom")
@@ -202,6 +210,24 @@ def _validate_data(problems: Problems, data, where: list) -> None:
                 expect_type(problems, json_path(*at), item, str, "a file name or an object with 'file'")
 
 
+def _where_in_entry(at: list, message: str) -> tuple[str, str]:
+    """``"expectations[1].at: must be ..."`` (a path inside the entry, from harness.acceptance and
+    harness.sweep) -> (``$.runs[i].expectations[1].at``, ``must be ...``)."""
+    inner, sep, what = message.partition(": ")
+    if not sep or " " in inner:
+        return json_path(*at), message
+    return json_path(*at) + ("" if inner.startswith("[") else ".") + inner, what
+
+
+def _file_in_testcase_problem(name: str) -> str | None:
+    """A script or post script runs in the run folder, which holds the test case's files: it must be one
+    of them (its bytes are part of the content hash), not a path outside."""
+    path = PurePosixPath(name)
+    if not name.strip() or path.is_absolute() or ".." in path.parts:
+        return f"{name!r} must be a file of the test case folder (a relative path without '..')"
+    return None
+
+
 def _validate_entry(problems: Problems, entry: dict, i: int, folder: Path, adapter_name: str) -> str | None:
     """Validate one run configuration; returns the script for ``adapter_name`` (None: not for it)."""
     at = ["runs", i]
@@ -209,8 +235,16 @@ def _validate_entry(problems: Problems, entry: dict, i: int, folder: Path, adapt
         problems.add(json_path(*at, key), f"unknown field (known: {', '.join(sorted(RUN_KEYS))})")
     if "name" not in entry:
         problems.add(json_path(*at, "name"), "required")
-    else:
-        expect_type(problems, json_path(*at, "name"), entry["name"], str, "a string")
+    elif expect_type(problems, json_path(*at, "name"), entry["name"], str, "a string"):
+        # the name becomes the run folder's name: one safe path segment, never '..', '/x' or ''
+        problem = segment_problem(entry["name"])
+        if problem:
+            problems.add(json_path(*at, "name"), f"run name {problem}")
+        elif entry["name"] == CONFIG_RUN:
+            problems.add(json_path(*at, "name"), f"{CONFIG_RUN!r} is the name under which a broken run.config "
+                         "is reported; choose another")
+    if "description" in entry:
+        expect_type(problems, json_path(*at, "description"), entry["description"], str, "a string")
     run_type = entry.get("type", "serial")
     if run_type not in RUN_TYPES:
         problems.add(json_path(*at, "type"), f"unknown run type {run_type!r} (known: {', '.join(RUN_TYPES)})")
@@ -224,13 +258,30 @@ def _validate_entry(problems: Problems, entry: dict, i: int, folder: Path, adapt
         options = entry.get("mpi_options")
         if options is None:
             problems.add(json_path(*at, "mpi_options"), "required for type mpi/custom")
-        elif not isinstance(options, (str, list)):
-            problems.add(json_path(*at, "mpi_options"), "must be a string or a list of strings")
+        elif isinstance(options, list):
+            for j, option in enumerate(options):
+                expect_type(problems, json_path(*at, "mpi_options", j), option, str, "a string")
+        elif expect_type(problems, json_path(*at, "mpi_options"), options, str, "a string or a list of strings"):
+            try:
+                shlex.split(options)  # what the launcher command line is made of (harness.runner.mpi_prefix)
+            except ValueError as exc:
+                problems.add(json_path(*at, "mpi_options"), f"cannot be split into arguments ({exc})")
     for key in ("variables", "thermo_columns", "consistency", "vtk"):
         if key in entry:
             expect_type(problems, json_path(*at, key), entry[key], dict, "an object")
-    for name, value in (entry.get("variables") or {}).items() if isinstance(entry.get("variables"), dict) else ():
-        expect_type(problems, json_path(*at, "variables", name), value, (str, int, float), "a string or number")
+    if isinstance(entry.get("variables"), dict):
+        for name, value in entry["variables"].items():
+            expect_type(problems, json_path(*at, "variables", name), value, (str, int, float), "a string or number")
+    if isinstance(entry.get("thermo_columns"), dict):
+        for name, value in entry["thermo_columns"].items():
+            expect_type(problems, json_path(*at, "thermo_columns", name), value, str, "a column name (string)")
+    if isinstance(entry.get("vtk"), dict):
+        for key, value in entry["vtk"].items():
+            if key != "density":
+                problems.add(json_path(*at, "vtk", key), "unknown field (known: density)")
+            elif expect_type(problems, json_path(*at, "vtk", key), value, (int, float), "a number (kg/m^3)") \
+                    and value <= 0:
+                problems.add(json_path(*at, "vtk", key), "must be positive")
     if isinstance(entry.get("consistency"), dict):
         for quantity, setting in entry["consistency"].items():
             where = json_path(*at, "consistency", quantity)
@@ -250,22 +301,25 @@ def _validate_entry(problems: Problems, entry: dict, i: int, folder: Path, adapt
     post_scripts = entry.get("post_scripts", [])
     if expect_type(problems, json_path(*at, "post_scripts"), post_scripts, list, "a list of file names"):
         for j, script in enumerate(post_scripts):
-            if expect_type(problems, json_path(*at, "post_scripts", j), script, str, "a file name") \
-                    and not (folder / script).is_file():
+            if not expect_type(problems, json_path(*at, "post_scripts", j), script, str, "a file name"):
+                continue
+            problem = _file_in_testcase_problem(script)
+            if problem:
+                problems.add(json_path(*at, "post_scripts", j), problem)
+            elif not (folder / script).is_file():
                 problems.add(json_path(*at, "post_scripts", j), f"post script {script!r} not found in {folder}")
     if "data" in entry:
         _validate_data(problems, entry["data"], [*at, "data"])
-    try:
-        from harness import acceptance
-    except ImportError:
-        acceptance = None
-    if acceptance is not None and ("expectations" in entry or "stability" in entry):
-        for message in acceptance.validate(entry):
-            problems.add(json_path(*at), message)
-    from harness import sweep
+    # harness.acceptance and harness.sweep name paths inside the entry; a NaN there is reported already
+    already = {message[len(f"{problems.path}: "):].partition(": ")[0] for message in problems.messages}
+    from harness import acceptance, sweep
 
-    for message in sweep.validate(entry):
-        problems.add(json_path(*at), message)
+    inner = (acceptance.validate(entry) if "expectations" in entry or "stability" in entry else []) \
+        + sweep.validate(entry)
+    for message in inner:
+        where, what = _where_in_entry(at, message)
+        if where not in already:
+            problems.add(where, what)
 
     script = entry.get("script")
     if script is None:
@@ -287,77 +341,145 @@ def _validate_entry(problems: Problems, entry: dict, i: int, folder: Path, adapt
         accepts = getattr(get_adapter(adapter_name), "accepts_script", None)
         if accepts is not None and not accepts(script):
             return None  # a plain script in another code's input language: not a run for this engine
-    if isinstance(script, str) and not (folder / script).is_file():
-        problems.add(where, f"script {script!r} not found in {folder}")
+    if isinstance(script, str):
+        problem = _file_in_testcase_problem(script)
+        if problem:
+            problems.add(where, problem)
+        elif not (folder / script).is_file():
+            problems.add(where, f"script {script!r} not found in {folder}")
     return script
 
 
-def _dependency_problems(problems: Problems, runs: list[dict]) -> None:
-    names = [r.get("name") for r in runs if isinstance(r, dict)]
-    for i, entry in enumerate(runs):
+def _dependency_problems(path: Path, runs: list[tuple[int, dict]]) -> dict[int, list[str]]:
+    """Problems of ``depends_on`` per position in ``runs`` (pairs of the index in the file and the entry):
+    an unknown run, or a cycle (reported for every run on it)."""
+    found: dict[int, list[str]] = {}
+    names = [entry.get("name") for _i, entry in runs if isinstance(entry, dict)]
+    graph = {}
+    for k, (i, entry) in enumerate(runs):
         if not isinstance(entry, dict):
             continue
         dep = entry.get("depends_on")
+        if isinstance(entry.get("name"), str):  # a name of another type is reported by _validate_entry
+            graph.setdefault(entry["name"], dep)
         if isinstance(dep, str) and dep not in names:
-            problems.add(json_path("runs", i, "depends_on"), f"unknown run {dep!r} (runs here: {', '.join(map(str, names))})")
-    graph = {r.get("name"): r.get("depends_on") for r in runs if isinstance(r, dict)}
-    for start in graph:
+            problems = Problems(path)
+            problems.add(json_path("runs", i, "depends_on"),
+                         f"unknown run {dep!r} (runs here: {', '.join(map(str, names))})")
+            found.setdefault(k, []).extend(problems.messages)
+    for k, (i, entry) in enumerate(runs):
+        if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
+            continue
+        start = entry["name"]
         seen, node = [], start
-        while node in graph and graph[node] is not None:
+        while node in graph and isinstance(graph[node], str):
             if node in seen:
-                cycle = seen[seen.index(node):] + [node]
-                if start == node:
-                    problems.add(json_path("runs"), "dependency cycle: " + " -> ".join(map(str, cycle)))
+                if node == start:
+                    problems = Problems(path)
+                    cycle = seen + [node]
+                    problems.add(json_path("runs", i, "depends_on"),
+                                 "dependency cycle: " + " -> ".join(map(str, cycle)))
+                    found.setdefault(k, []).extend(problems.messages)
                 break
             seen.append(node)
             node = graph[node]
+    return found
+
+
+def _without_broken_fields(entry: dict, problems: list[str], i: int) -> dict:
+    """The entry without the fields its problems name. A broken entry is only recorded (reason config),
+    never run; what is recorded must still be plain JSON of the expected shapes (no NaN for the store,
+    no list where the planner reads an object)."""
+    prefix = json_path("runs", i) + "."
+    bad = set()
+    for message in problems:
+        _file, sep, rest = message.partition(": " + prefix)
+        if sep:
+            bad.add(re.split(r"[.\[:]", rest, maxsplit=1)[0])
+    return {key: value for key, value in entry.items() if key not in bad and not has_non_finite(value)}
 
 
 def parse_run_config(data, path: Path, adapter_name: str) -> tuple[list[RunEntry], list[str]]:
-    """Validate a run.config for one adapter: the run entries (with their own problems) and file problems.
+    """Validate a run.config for one adapter: the run entries (with their own problems) and the problems
+    of the file (file-level ones and those between entries: duplicate names, dependencies).
 
-    A problem in one entry marks that entry invalid; the others stay runnable. A file-level problem (not
-    an object, no runs list, duplicate names, dependency cycle) is returned separately.
+    A problem in one entry marks that entry invalid (it is recorded as failed, reason config); the others
+    stay runnable. Problems of the file as a whole (not an object, no runs list, an entry that is no
+    object, an unknown top-level field) that concern no run are carried by a pseudo run named
+    ``run.config`` (``CONFIG_RUN``), so they are reported and recorded while the valid runs still run.
+    JSON paths count entries as written in the file, also after a sweep expanded into several runs.
     """
     folder = path.parent
     file_problems = Problems(path)
     if not isinstance(data, dict):
+        non_finite_problems(file_problems, data)
         file_problems.add("$", "a run.config must be a JSON object with a 'runs' list")
-        return [], file_problems.messages
+        return _with_config_run([], file_problems.messages), file_problems.messages
+    for key in sorted(set(data) - {"runs", "description"}):
+        file_problems.add(json_path(key), "unknown field (known: runs, description)")
+    non_finite_problems(file_problems, {k: v for k, v in data.items() if k != "runs"})
+    if "description" in data:
+        expect_type(file_problems, json_path("description"), data["description"], str, "a string")
     runs = data.get("runs")
     if runs is None:
         file_problems.add(json_path("runs"), "required")
-        return [], file_problems.messages
+        return _with_config_run([], file_problems.messages), file_problems.messages
     if not expect_type(file_problems, json_path("runs"), runs, list, "a list of run configurations"):
-        return [], file_problems.messages
-    # a valid sweep block becomes one ordinary run per value (harness.sweep); an invalid one stays to be reported
+        non_finite_problems(file_problems, runs, "runs")
+        return _with_config_run([], file_problems.messages), file_problems.messages
+    # a valid sweep block becomes one ordinary run per value (harness.sweep); an invalid one stays to be
+    # reported as one entry. Each item keeps the index of its entry in the file and the entry's NaN problems.
     from harness import sweep
 
-    runs = [point for entry in runs
-            for point in (sweep.expand(entry) if isinstance(entry, dict) and not sweep.validate(entry)
-                          and isinstance(entry.get("name"), str) else [entry])]
-    for key in sorted(set(data) - {"runs", "description"}):
-        file_problems.add(json_path(key), "unknown field (known: runs, description)")
-    names = [r.get("name") for r in runs if isinstance(r, dict)]
-    for name in sorted({n for n in names if isinstance(n, str) and names.count(n) > 1}):
-        file_problems.add(json_path("runs"), f"run name {name!r} is used more than once")
-    _dependency_problems(file_problems, runs)
-    entries = []
+    items: list[tuple[int, object, list[str]]] = []
     for i, entry in enumerate(runs):
+        non_finite = Problems(path)
+        non_finite_problems(non_finite, entry, "runs", i)
+        expandable = (isinstance(entry, dict) and not non_finite and isinstance(entry.get("name"), str)
+                      and segment_problem(entry["name"]) is None and isinstance(entry.get("variables", {}), dict)
+                      and not sweep.validate(entry))
+        for point in sweep.expand(entry) if expandable else [entry]:
+            items.append((i, point, non_finite.messages))
+    between: dict[int, list[str]] = {}   # problems between entries, by position in items
+    names = [entry.get("name") for _i, entry, _p in items if isinstance(entry, dict)]
+    for k, (i, entry, _p) in enumerate(items):
+        name = entry.get("name") if isinstance(entry, dict) else None
+        if isinstance(name, str) and names.count(name) > 1:
+            problems = Problems(path)
+            problems.add(json_path("runs", i, "name"), f"run name {name!r} is used more than once")
+            between.setdefault(k, []).extend(problems.messages)
+    for k, messages in _dependency_problems(path, [(i, entry) for i, entry, _p in items]).items():
+        between.setdefault(k, []).extend(messages)
+    entries = []
+    unattached = list(file_problems.messages)
+    for k, (i, entry, non_finite) in enumerate(items):
         problems = Problems(path)
-        if not expect_type(problems, json_path("runs", i), entry, dict, "a run configuration object"):
-            file_problems.messages.extend(problems.messages)
+        problems.messages.extend(non_finite)
+        if not isinstance(entry, dict):
+            if not non_finite:
+                expect_type(problems, json_path("runs", i), entry, dict, "a run configuration object")
+            unattached.extend(problems.messages)
             continue
         script = _validate_entry(problems, entry, i, folder, adapter_name)
-        name = entry.get("name") if isinstance(entry.get("name"), str) else f"runs[{i}]"
+        problems.messages.extend(between.get(k, []))
+        valid_name = isinstance(entry.get("name"), str) and not any(
+            f": {json_path('runs', i, 'name')}: " in m for m in problems.messages
+            if "used more than once" not in m)
+        name = entry["name"] if valid_name else f"runs[{i}]"
         if script is None and not problems and "script" in entry:
             continue  # this run is written for another engine
-        entries.append(RunEntry(name=name, config=entry, script=script, problems=problems.messages))
-    # a dependency problem concerns the runs in it: attach file-level problems to every entry
-    if file_problems:
-        for entry in entries:
-            entry.problems = file_problems.messages + entry.problems
-    return entries, file_problems.messages
+        config = _without_broken_fields(entry, problems.messages, i) if problems else entry
+        entries.append(RunEntry(name=name, config=config, script=script, problems=problems.messages))
+    reported = file_problems.messages + [m for messages in between.values() for m in messages]
+    reported += [m for m in unattached if m not in reported]
+    return _with_config_run(entries, unattached), reported
+
+
+def _with_config_run(entries: list[RunEntry], unattached: list[str]) -> list[RunEntry]:
+    """``entries`` and, when some problems concern no run, the pseudo run ``run.config`` carrying them."""
+    if unattached:
+        entries = entries + [RunEntry(CONFIG_RUN, {}, problems=list(unattached))]
+    return entries
 
 
 def load_testcase(folder: Path, path: str, adapter) -> TestCaseSpec | None:
@@ -366,7 +488,7 @@ def load_testcase(folder: Path, path: str, adapter) -> TestCaseSpec | None:
     generated = False
     if config_file.is_file():
         try:
-            data = load_json(config_file)
+            data = load_json(config_file, strict=False)
         except UserError as exc:
             return TestCaseSpec(path, folder, [RunEntry(CONFIG_RUN, {}, problems=[str(exc)])])
     else:
@@ -374,24 +496,54 @@ def load_testcase(folder: Path, path: str, adapter) -> TestCaseSpec | None:
         if data is None:
             return None
         generated = True
-    entries, file_problems = parse_run_config(data, config_file, adapter.name)
-    if file_problems and not entries:
-        entries = [RunEntry(CONFIG_RUN, {}, problems=file_problems)]
+    entries, _problems = parse_run_config(data, config_file, adapter.name)
     return TestCaseSpec(path, folder, entries, generated)
 
 
-def _walk(root: Path, base: Path, prefix: str, adapter) -> list[TestCaseSpec]:
-    found = []
+def _holds_testcase(folder: Path, adapter) -> bool:
+    """Whether ``folder`` or a folder below it would be a test case."""
+    for current, dirs, files in os.walk(folder):
+        dirs[:] = [d for d in dirs if not d.startswith(".")]
+        if RUN_CONFIG in files or adapter.default_run_config(Path(current)) is not None:
+            return True
+    return False
+
+
+def _walk(root: Path, base: Path, prefix: str, adapter) -> tuple[list[TestCaseSpec], list[str]]:
+    """The test cases below ``root`` and the problems of folders skipped.
+
+    Skipped: folders starting with '.' (silently); folders with a reserved name (post, restart, meshes,
+    scripts, __pycache__: a test case's own parts, never a test case) - reported when one holds a
+    run.config the user may expect to run; folders whose name is not a safe path segment (it would name a
+    folder of the workspace) - reported, with everything below them, when they hold a test case.
+    """
+    found, problems = [], []
     if not root.is_dir():
-        return found
+        return found, problems
     for current, dirs, _files in os.walk(root):
         current = Path(current)
-        dirs[:] = sorted(d for d in dirs if d not in NOT_TESTCASES and not d.startswith("."))
+        keep = []
+        for d in sorted(dirs):
+            if d.startswith("."):
+                continue
+            if d in NOT_TESTCASES:
+                if (current / d / RUN_CONFIG).is_file():
+                    problems.append(f"{current / d / RUN_CONFIG}: ignored: {d!r} is a reserved folder name "
+                                    f"({', '.join(sorted(NOT_TESTCASES))}) and never a test case; rename the "
+                                    "folder to run it")
+                continue
+            problem = segment_problem(d)
+            if problem:
+                if _holds_testcase(current / d, adapter):
+                    problems.append(f"{current / d}: skipped: test case folder name {problem}")
+                continue
+            keep.append(d)
+        dirs[:] = keep
         rel = current.relative_to(base).as_posix()
         spec = load_testcase(current, f"{prefix}{rel}" if prefix else rel, adapter)
         if spec is not None:
             found.append(spec)
-    return found
+    return found, problems
 
 
 def testcase_root(target: TargetDefinition, working_tree: bool = False) -> Path:
@@ -424,7 +576,7 @@ def testcase_root(target: TargetDefinition, working_tree: bool = False) -> Path:
 
 
 def discover(target: TargetDefinition, adapter, working_tree: bool = False) -> tuple[list[TestCaseSpec], list[str]]:
-    """The test cases of a target and problems (missing test case folders)."""
+    """The test cases of a target and problems (missing test case folders, folders skipped by ``_walk``)."""
     root = None
     specs, problems = [], []
     for folder in target.testcases:
@@ -438,7 +590,9 @@ def discover(target: TargetDefinition, adapter, working_tree: bool = False) -> t
             problems.append(f"{target.path}: $.testcases: folder {folder!r} does not exist"
                             + ("" if Path(folder).is_absolute() else f" at {target.testcases_revision}"))
             continue
-        for spec in _walk(path, base, prefix, adapter):
+        found, skipped = _walk(path, base, prefix, adapter)
+        problems.extend(skipped)
+        for spec in found:
             if prefix and spec.path.endswith("/."):
                 spec.path = spec.path[:-2]
             specs.append(spec)
