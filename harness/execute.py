@@ -12,6 +12,7 @@ import shutil
 import signal
 import stat
 import subprocess
+import tempfile
 import threading
 import time
 from datetime import datetime, timezone
@@ -163,9 +164,15 @@ def _run_engine(spec: dict, folder: Path, record: dict) -> tuple[int | None, boo
 
 
 def _run_post_scripts(spec: dict, folder: Path, record: dict) -> bool:
-    """Run the post scripts in order in the run folder (thesis 4.3.5); False if one failed."""
+    """Run the post scripts in order in the run folder (thesis 4.3.5); False if one failed.
+
+    Each runs in its own session like the engine; when it ends - normally or by its timeout - its whole
+    process group is killed, so background children it started (``sleep 1000 &``) never outlive it, and
+    a child still holding its output cannot keep the harness waiting.
+    """
     env = dict(os.environ)
     env.update(spec.get("environment") or {})
+    timeout = float(spec.get("timeout") or 600)
     with open(folder / POST_LOG, "ab") as log:
         for script in spec["config"].get("post_scripts", []):
             path = folder / script
@@ -180,24 +187,53 @@ def _run_post_scripts(spec: dict, folder: Path, record: dict) -> bool:
             path.chmod(path.stat().st_mode | stat.S_IXUSR)
             log.write(f"$ {script}\n".encode())
             log.flush()
-            try:
-                result = subprocess.run([str(path.resolve())], cwd=folder, env=env, stdout=log,
-                                        stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
-                                        timeout=float(spec.get("timeout") or 600), start_new_session=True)
-            except subprocess.TimeoutExpired:
-                fail(record, "post_script", f"post script {script!r} timed out")
+            code, timed_out, stderr = _run_post_script(path, folder, env, log, timeout)
+            if code is None:
+                fail(record, "post_script", f"post script {script!r} cannot start: {stderr}")
                 return False
-            except OSError as exc:
-                fail(record, "post_script", f"post script {script!r} cannot start: {exc.strerror}")
+            log.write(stderr)
+            if _interrupted.is_set():
+                fail(record, "interrupted", "the harness was interrupted")
                 return False
-            log.write(result.stderr)
-            if result.returncode != 0:
-                last = result.stderr.decode("utf-8", "replace").strip().splitlines()[-1:] or [""]
-                how = (f"was killed by {signal_name(-result.returncode)}" if result.returncode < 0
-                       else f"exited with code {result.returncode}")
+            if timed_out:
+                fail(record, "post_script", f"post script {script!r} timed out after {timeout:g} s "
+                     "(process group killed)")
+                return False
+            if code != 0:
+                last = stderr.decode("utf-8", "replace").strip().splitlines()[-1:] or [""]
+                how = f"was killed by {signal_name(-code)}" if code < 0 else f"exited with code {code}"
                 fail(record, "post_script", f"post script {script!r} {how}: {last[0]}".rstrip(": "))
                 return False
     return True
+
+
+def _run_post_script(path: Path, folder: Path, env: dict, log, timeout: float) -> tuple[int | None, bool, bytes]:
+    """(exit code or None when it cannot start, timed out, stderr). stderr goes to an unnamed file, not a
+    pipe: a pipe stays open as long as any child holds it, a file is read once the script ended."""
+    with tempfile.TemporaryFile() as err:
+        try:
+            process = subprocess.Popen([str(path.resolve())], cwd=folder, env=env, stdout=log, stderr=err,
+                                       stdin=subprocess.DEVNULL, start_new_session=True)
+        except OSError as exc:
+            return None, False, (exc.strerror or str(exc)).encode()
+        key = f"{folder}#post"
+        with _running_lock:
+            _running[key] = process.pid  # Ctrl-C kills it with the engines (kill_all_running)
+        try:
+            try:
+                code, timed_out = process.wait(timeout=timeout), False
+            except subprocess.TimeoutExpired:
+                kill_group(process.pid)
+                code, timed_out = process.wait(), True
+        finally:
+            try:  # what the script left running in its group goes with it
+                os.killpg(process.pid, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
+            with _running_lock:
+                _running.pop(key, None)
+        err.seek(0)
+        return code, timed_out, err.read()
 
 
 def _classify(record: dict, code: int | None, timed_out: bool, scan, timeout: float) -> None:
@@ -221,9 +257,12 @@ def execute(spec: dict) -> dict:
     adapter = get_adapter(spec["adapter"])
     try:
         folder = prepare_folder(spec)
-    except OSError as exc:
+    except (OSError, UserError) as exc:
+        # a full disk, a file where a folder belongs, a folder the workspace refuses to replace: this run
+        # fails (reason config: its folder is part of its configuration), the others go on
+        detail = f"{exc.strerror} ({exc.filename})" if isinstance(exc, OSError) and exc.strerror else str(exc)
         record["finished"] = now_iso()
-        return fail(record, "config", f"cannot prepare run folder {spec['folder']}: {exc}")
+        return fail(record, "config", f"cannot prepare run folder {spec['folder']}: {detail}")
     record["started"] = now_iso()
     start = time.perf_counter()
     code, timed_out = _run_engine(spec, folder, record)
