@@ -1,7 +1,11 @@
 """The ``harness`` command line: ``harness [--machine NAME] [--home DIR] COMMAND ...``.
 
 Subcommands live in ``harness/commands/`` (one module each, found with pkgutil). A ``UserError`` becomes
-one line ``harness: error: ...`` and exit code 1; nothing a user can cause prints a traceback.
+one line ``harness: error: ...`` and exit code 1; nothing a user can cause prints a traceback. Nor does a
+fault of the machine: a workspace that is not a folder or cannot be created, a store that cannot be opened
+or written (``harness: error: store FILE: MESSAGE`` - read-only, disk full, server down; what was stored
+before stays), a file that cannot be read or written (``harness: error: FILE: MESSAGE``). Set
+``HARNESS_TRACEBACK=1`` to see the traceback of such a fault instead.
 """
 from __future__ import annotations
 
@@ -16,7 +20,7 @@ import sys
 from pathlib import Path
 
 from harness.adapters.base import UserError
-from harness.workspace import Workspace, segment_problem, use_workspace
+from harness.workspace import Workspace, segment_problem, use_workspace, workspace
 
 
 def _commands():
@@ -77,6 +81,10 @@ def _dispatch(args_list: list[str]) -> int:
         return 1
     if args.targets_dir:
         args.targets_dir = Path(args.targets_dir).expanduser().resolve()
+    problem = _workspace_problem(workspace().home)
+    if problem:
+        print(f"harness: error: {problem}", file=sys.stderr)
+        return 1
     previous = signal.signal(signal.SIGTERM, _terminate) if _in_main_thread() else None
     try:
         return int(args._run(args) or 0)
@@ -86,9 +94,55 @@ def _dispatch(args_list: list[str]) -> int:
     except KeyboardInterrupt:
         print("harness: interrupted; runs in flight were recorded as failed (interrupted)", file=sys.stderr)
         return 130
+    except Exception as exc:  # noqa: BLE001 - only a fault of the machine is mapped; anything else re-raised
+        line = _fault_line(exc)
+        if line is None or os.environ.get("HARNESS_TRACEBACK"):
+            raise
+        print(f"harness: error: {line}", file=sys.stderr)
+        return 1
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+
+
+def _workspace_problem(home: Path) -> str | None:
+    """Why the workspace folder cannot be used (None: it exists or was created)."""
+    if home.exists() and not home.is_dir():
+        return f"workspace {home}: not a folder (--home or HARNESS_HOME)"
+    try:
+        home.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        return f"workspace {home}: cannot create ({exc.strerror or exc})"
+    return None
+
+
+def _fault_line(exc: BaseException) -> str | None:
+    """One line for a fault of the machine rather than of the harness: the store cannot be opened or
+    written (a Django DatabaseError: read-only, full disk, server down), or a file cannot be read or written
+    (an OSError). None for anything else (a bug, shown with its traceback)."""
+    if "django.db" in sys.modules:
+        from django.db import DatabaseError
+
+        if isinstance(exc, DatabaseError):
+            return f"store {_store_name()}: {' '.join(str(exc).split()) or type(exc).__name__}"
+    if isinstance(exc, OSError):
+        what = exc.strerror or str(exc) or type(exc).__name__
+        return f"{exc.filename}: {what}" if exc.filename else what
+    return None
+
+
+def _store_name() -> str:
+    """The SQLite file, or ENGINE HOST:PORT/NAME of a database server (never its password)."""
+    try:
+        from django.conf import settings
+
+        database = settings.DATABASES["default"]
+    except Exception:  # noqa: BLE001 - settings not configured: name what the workspace would use
+        return str(workspace().database)
+    if database["ENGINE"].endswith("sqlite3"):
+        return str(database["NAME"])
+    return f"{database['ENGINE'].rsplit('.', 1)[-1]} {database.get('HOST') or 'localhost'}" \
+           f"{':' + str(database['PORT']) if database.get('PORT') else ''}/{database['NAME']}"
 
 
 def _in_main_thread() -> bool:
