@@ -7,8 +7,10 @@ LAMMPS is run as a program from the run folder, like LIGGGHTS (a LAMMPS fork) an
 Everything the harness needs is read from the log LAMMPS writes with ``-log`` (the format of LAMMPS
 29 Sep 2021, the Debian release, and of later ones):
 
-- thermo: one table per ``run``, each after its own header (``Step Atoms KinEng c_rke``); compute columns
-  keep their ``c_`` prefix (LIGGGHTS strips it). Only the one-line thermo style is read (not ``multi``/``yaml``).
+- thermo: one table per ``run``, each after its own header (``Step Atoms KinEng c_rke``), joined on the columns
+  every block prints; compute columns keep their ``c_`` prefix (LIGGGHTS strips it). Only the one-line thermo
+  style is read (not ``multi``/``yaml``). ``ke`` is LAMMPS' ``KinEng``, 1/2 dof kB T: with one atom in 3d the
+  default dof 3N - 3 is 0 and so is ``KinEng`` (``compute_modify thermo_temp extra/dof 0`` keeps it 1/2 m v^2).
 - timing: ``Loop time of T on P procs for N steps with A atoms`` and the table after
   ``MPI task timing breakdown:`` (``Pair | min | avg | max | %varavg | %total``); the harness takes the
   ``avg`` column of Pair, Neigh, Comm, Output, Modify, Other, summed over run blocks.
@@ -242,7 +244,9 @@ class LammpsAdapter(LiggghtsAdapter):
             last_step = rows[-1][0]
         if not frames:
             raise UserError(f"{source}: no thermo output (a 'thermo' table after a 'Step ...' header)")
-        table = pd.concat(frames, ignore_index=True)
+        # a column only some blocks print (e.g. CPU added by a later thermo_style) would be NaN in the others
+        common = [c for c in frames[0].columns if all(c in f.columns for f in frames)]
+        table = pd.concat([f[common] for f in frames], ignore_index=True)
         candidates = {"rke": [f"c_{cid}" for cid in erotate_compute_ids(lines)]}
         return self.map_thermo(table, mapping, source, candidates)
 

@@ -26,4 +26,4 @@ end = next(i for i in range(start, len(ke) - 2) if abs(ke[i + 1] - ke[i]) <= rel
 contact_time = float(time.iloc[end] - time.iloc[start - 1])
 with open("impact.txt", "w") as out:
     out.write("contact_time restitution\n")
-    out.write(f"{contact_time!r} {math.sqrt(ke[-1] / ke[0])!r}\n")
+    out.write(f"{contact_time!r} {float(math.sqrt(ke[-1] / ke[0]))!r}\n")
