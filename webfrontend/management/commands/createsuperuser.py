@@ -1,0 +1,15 @@
+"""``createsuperuser`` that first brings the store's schema up to date (harness.schema): on a fresh clone
+it may be the first command that opens the store."""
+from django.contrib.auth.management.commands.createsuperuser import Command as CreateSuperuser
+from django.core.management.base import CommandError
+
+from harness.schema import SchemaBehind, ensure_schema
+
+
+class Command(CreateSuperuser):
+    def handle(self, *args, **options):
+        try:
+            ensure_schema(options.get("database") or "default")
+        except SchemaBehind as exc:
+            raise CommandError(str(exc)) from None
+        return super().handle(*args, **options)
