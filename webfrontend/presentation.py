@@ -30,6 +30,23 @@ def revision_label(build) -> str:
     return commit or build.revision
 
 
+def tail(text: str, limit: int) -> dict:
+    """The last ``limit`` characters of a long text (a build log ends with its error), and whether it was cut."""
+    text = text or ""
+    return {"text": text[-limit:] if len(text) > limit else text, "cut": len(text) > limit, "length": len(text)}
+
+
+def provenance(run) -> dict:
+    """What a run's verdict was computed on, in short forms: the target's commit, the test case content
+    hash and the reference run (its target and commit), with harness.check's one-line text as ``text``."""
+    from harness.check import provenance as provenance_text
+
+    reference = run.reference_run if run.reference_run_id else None
+    return {"commit": (run.build.commit or "")[:10], "testcase": run.short_hash,
+            "reference": reference, "reference_commit": (reference.build.commit or "")[:10] if reference else "",
+            "text": provenance_text(run)}
+
+
 def run_label(run) -> str:
     """One-line name of a run: id, target at revision, test case / run name, machine."""
     return f"#{run.pk} {run.target.name}@{revision_label(run.build)} {run.testcase.path}/{run.name} " \

@@ -1,6 +1,8 @@
 """Reading a run folder for the dashboard: the input script, log, console output, artifacts.
 
 Every path a request names is resolved and must stay inside the run folder (no ``../``, no symlink out).
+File names come from where they are decided: the engine's log from the adapter of the run's target
+(``harness.adapters``), console output and post script log from ``harness.execute``.
 """
 from __future__ import annotations
 
@@ -11,13 +13,15 @@ from pathlib import Path
 
 from django.conf import settings
 
-#: candidate file names, first existing wins (the bundled engine's adapter writes log.txt, see
-#: harness/adapters/base.py; LIGGGHTS-style folders use log.liggghts)
-LOG_NAMES = ("log.txt", "log.liggghts", "log.lammps", "log")
-STDOUT_NAMES = ("stdout.txt", "stdout", "stdout.log", "out.txt")
-STDERR_NAMES = ("stderr.txt", "stderr", "stderr.log", "err.txt")
+from harness.adapters import UserError, get_adapter
+from harness.execute import POST_LOG, RECORD_FILE, STDERR, STDOUT
+
+#: the adapter of a target whose definition names none (harness/targets.py: ``engine`` defaults to dem)
+DEFAULT_ENGINE = "dem"
 SCRIPT_KEYS = ("script", "input", "input_script")
-RECORD_NAME = "run.json"
+RECORD_NAME = RECORD_FILE
+#: files looked at when listing artifacts, at most (a run folder with a million dumps lists the first ones)
+ARTIFACT_SCAN_LIMIT = 20_000
 #: artifact suffixes offered for download on the run page
 ARTIFACT_SUFFIXES = (".vtp", ".vtk", ".vtu", ".csv", ".txt", ".json", ".xml", ".dat", ".log", ".in")
 
@@ -50,10 +54,23 @@ class RunFolder:
         """Path of ``relative`` inside the run folder, or None if it leaves the folder or is no file."""
         if not self.exists() or not relative or "\x00" in relative:
             return None
-        candidate = (self.root / relative).resolve()
-        if not candidate.is_relative_to(self.root) or not candidate.is_file():
+        try:
+            candidate = (self.root / relative).resolve()
+            if not candidate.is_relative_to(self.root) or not candidate.is_file():
+                return None
+        except OSError:  # a name too long for the file system, a symlink loop: no such file
             return None
         return candidate
+
+    def log_name(self) -> str | None:
+        """The log file the engine adapter of the run's target writes (None: adapter unknown here)."""
+        target = getattr(self.run, "target", None)
+        definition = getattr(target, "definition", None)
+        engine = (definition.get("engine") if isinstance(definition, dict) else None) or DEFAULT_ENGINE
+        try:
+            return get_adapter(engine).log_file()
+        except UserError:  # a run imported from a machine with an adapter this one lacks
+            return None
 
     def _first(self, names) -> str | None:
         for name in names:
@@ -96,21 +113,43 @@ class RunFolder:
             "run configuration": TextFile("run.config entry", json.dumps(self.run.config, indent=2,
                                                                            sort_keys=True)),
             "run record": self.read(RECORD_NAME),
-            "log": self.read(self._first(LOG_NAMES)),
-            "stdout": self.read(self._first(STDOUT_NAMES)),
-            "stderr": self.read(self._first(STDERR_NAMES)),
+            "log": self.read(self.log_name()),
+            "stdout": self.read(STDOUT),
+            "stderr": self.read(STDERR),
+            "post scripts": self.read(POST_LOG),
         }
 
     def artifacts(self, limit: int = 500) -> list[tuple[str, int]]:
         """(relative path, size in bytes) of downloadable files, at most ``limit``, sorted by path."""
         if not self.exists():
             return []
-        found = []
-        for path in sorted(self.root.rglob("*"), key=_natural):
-            if path.is_file() and path.suffix.lower() in ARTIFACT_SUFFIXES:
-                resolved = path.resolve()
-                if resolved.is_relative_to(self.root):
+        found: list[tuple[str, int]] = []
+        scanned = 0
+        log_name = self.log_name()
+
+        def wanted(path: Path) -> bool:
+            # the engine's log has the adapter's name, whatever its suffix (log.dem, log.liggghts)
+            return path.suffix.lower() in ARTIFACT_SUFFIXES or path.name == log_name
+
+        # depth first, each folder's entries in natural order: the order of the sorted relative paths, and
+        # it stops after ``limit`` artifacts instead of listing the whole tree first
+        def walk(folder: Path) -> None:
+            nonlocal scanned
+            try:
+                entries = sorted(folder.iterdir(), key=_natural)
+            except OSError:
+                return
+            for path in entries:
+                scanned += 1
+                if len(found) >= limit or scanned > ARTIFACT_SCAN_LIMIT:
+                    return
+                if path.is_symlink():
+                    if path.is_file() and path.resolve().is_relative_to(self.root) and wanted(path):
+                        found.append((path.relative_to(self.root).as_posix(), path.stat().st_size))
+                elif path.is_dir():
+                    walk(path)
+                elif path.is_file() and wanted(path):
                     found.append((path.relative_to(self.root).as_posix(), path.stat().st_size))
-                if len(found) >= limit:
-                    break
+
+        walk(self.root)
         return found

@@ -1,38 +1,61 @@
 """Views of the dashboard (thesis 4.6): each a query (harness/queries.py) and a render.
 
-Anonymous users read everything; only a logged-in user may overrule (POST with CSRF token).
+Anonymous users read everything; only a logged-in user may overrule (POST with CSRF token). Every query
+string value is read through webfrontend.params (a bad one is a 400 naming it), every path value through
+the URL converters there (a bad one is a 404). Counts and verdicts are those of each target's current build
+(``build__current=True``, not replaced); runs of older builds stay reachable from history and run pages.
 """
 from __future__ import annotations
 
+from django.conf import settings
 from django.contrib import messages
 from django.contrib.auth.decorators import login_required
+from django.core.paginator import Paginator
+from django.db.models import Count, Q
 from django.http import FileResponse, Http404, HttpResponse
 from django.shortcuts import get_object_or_404, redirect, render
+from django.urls import reverse
+from django.utils.http import urlencode
 from django.views.decorators.http import require_POST
 
-from harness.models import ConsistencyResult, Machine, Override, Run, Series, Target, TestCase
+from harness.builds import current_build
+from harness.models import Build, ConsistencyResult, Machine, Override, Run, Series, Target, TestCase
 from harness.queries import CONSISTENCY_CATEGORIES, STATE_CATEGORIES
-from webfrontend import plots, presentation
+from harness.verdicts import current_runs, stored_junit_xml, stored_verdict
+from webfrontend import params, plots, presentation
 from webfrontend.forms import OverrideForm
-from webfrontend.junit import junit_xml
 from webfrontend.runfiles import RunFolder
+
+#: runs one comparison shows at most: each adds a timing bar and a curve to every plot, and beyond a few
+#: dozen the page says nothing more (the page says so; more is a 400 naming the limit)
+COMPARE_LIMIT = settings.DASHBOARD_COMPARE_LIMIT
+#: rows of a run list per page
+LIST_PAGE_SIZE = settings.DASHBOARD_LIST_PAGE_SIZE
+MODES = ("state", "consistency")
+#: fields of a run (and its build) no run list shows: left in the database, whatever their size
+LIST_DEFERRED = ("config", "command", "timing", "failure_message", "folder", "build__log", "build__commit_message",
+                 "build__environment", "build__executable")
+
+
+def _current(queryset):
+    """Runs of their target's current build that no newer run of other content replaced."""
+    return queryset.filter(build__current=True, replaced=False)
 
 
 def _mode(request) -> tuple[str, str | None]:
-    """(mode, category filter) from the query string; unknown values are ignored."""
-    mode = "consistency" if request.GET.get("mode") == "consistency" else "state"
-    show = request.GET.get("show")
-    allowed = CONSISTENCY_CATEGORIES if mode == "consistency" else STATE_CATEGORIES
-    return mode, show if show in allowed else None
+    """(mode, category filter) from the query string."""
+    mode = params.choice(request.GET, "mode", MODES, "state")
+    show = params.choice(request.GET, "show", CONSISTENCY_CATEGORIES if mode == "consistency" else STATE_CATEGORIES)
+    return mode, show
 
 
-def _ids(request, key="run") -> list[int]:
-    ids = []
-    for value in request.GET.getlist(key):
-        for part in value.split(","):
-            if part.strip().isdigit():
-                ids.append(int(part))
-    return ids
+def _run_list(queryset):
+    """A run list's queryset: the reference run's build for provenance, big fields left out."""
+    return queryset.select_related("reference_run__build", "reference_run__target").defer(*LIST_DEFERRED)
+
+
+def _page(request, queryset):
+    return Paginator(queryset, LIST_PAGE_SIZE).get_page(params.page_number(request.GET))
 
 
 def _png(fig) -> HttpResponse:
@@ -41,48 +64,93 @@ def _png(fig) -> HttpResponse:
     return response
 
 
+def _shared_series(runs) -> dict:
+    """Series the runs have, ``{(kind, name): {run_id: Series}}``, in two queries whatever their size: only
+    the first series of each (kind, name) carries its columns (the plot list needs its quantities); the
+    plot images load the data they draw."""
+    groups: dict = {}
+    for series in Series.objects.filter(run__in=runs).defer("columns").order_by("kind", "name", "run_id"):
+        groups.setdefault((series.kind, series.name), {})[series.run_id] = series
+    firsts = {next(iter(by_run.values())).pk for by_run in groups.values()}
+    full = {s.pk: s for s in Series.objects.filter(pk__in=firsts)}
+    return {key: {run_id: full.get(s.pk, s) for run_id, s in by_run.items()} for key, by_run in groups.items()}
+
+
+def bad_request(request, exception):
+    """400 page: the problem when the dashboard named it (webfrontend.params), else nothing of the request."""
+    named = isinstance(exception, params.BadParameter)
+    return render(request, "400.html", {"problem": str(exception) if named else "",
+                                        "links": exception.links if named else []}, status=400)
+
+
 def overview(request):
     mode, _ = _mode(request)
-    selected = request.GET.get("machine", "")
-    runs = Run.objects.filter(machine_id=selected) if selected.isdigit() else Run.objects.all()
+    selected = params.optional_id(request.GET, "machine")
+    runs = _current(Run.objects.all())
+    everything = Run.objects.all()
+    if selected is not None:
+        runs, everything = runs.filter(machine_id=selected), everything.filter(machine_id=selected)
+    machines = runs.overview()
+    builds = {(b.machine_id, b.target_id): b for b in Build.objects.filter(current=True).only(
+        "id", "machine_id", "target_id", "revision", "commit", "committed_at")}
+    totals = {(row["machine_id"], row["target_id"]): row for row in everything.values(
+        "machine_id", "machine__name", "target_id", "target__name").annotate(n=Count("id")).order_by()}
+    for machine in machines:
+        for target in machine["targets"]:
+            key = (machine["machine_id"], target["target_id"])
+            target["build"] = builds.get(key)
+            target["older"] = totals.pop(key)["n"] - target["tally"].total
+    # targets with runs, none of them by their current build: named, so that no result silently vanishes
+    uncounted = sorted(({"machine": r["machine__name"], "machine_id": r["machine_id"], "target": r["target__name"],
+                         "target_id": r["target_id"], "runs": r["n"], "build": builds.get(key)}
+                        for key, r in totals.items()), key=lambda u: (u["machine"], u["target"]))
     return render(request, "webfrontend/overview.html", {
-        "machines": runs.overview(), "mode": mode, "selected": selected,
+        "machines": machines, "mode": mode, "selected": selected, "uncounted": uncounted,
         "all_machines": Machine.objects.order_by("name")})
 
 
 def testcase_runs(request, testcase):
     case = get_object_or_404(TestCase, path=testcase.strip("/"))
     return render(request, "webfrontend/testcase.html", {
-        "testcase": case, "runs": Run.objects.filter(testcase=case).listing()})
+        "testcase": case, "page": _page(request, _run_list(Run.objects.filter(testcase=case).listing()))})
 
 
 def folder(request, machine_id, target_id, folder=""):
     mode, show = _mode(request)
     machine = get_object_or_404(Machine, pk=machine_id)
     target = get_object_or_404(Target.objects.select_related("reference"), pk=target_id)
-    runs = Run.objects.filter(machine=machine, target=target)
-    children, whole = runs.folder(folder.strip("/"))
-    if not children and not whole.is_testcase:
-        raise Http404("no test cases in this folder")
-    listed = runs.filter(testcase__path=whole.path).in_category(show).listing() if whole.is_testcase else []
+    build = current_build(target.name, machine.name)
+    runs = _current(Run.objects.filter(machine=machine, target=target))
+    folder = folder.strip("/")
+    children, whole = runs.folder(folder)
+    testcase = None
+    if not children and not whole.is_testcase and folder:
+        # no run of the current build here: a test case (or folder) only older builds ran stays reachable
+        testcase = TestCase.objects.filter(path=folder).first()
+        if testcase is None and not Run.objects.filter(machine=machine, target=target).below(folder).exists():
+            raise Http404("no test cases in this folder")
+    page = _page(request, _run_list(runs.filter(testcase__path=whole.path).in_category(show).listing())) \
+        if whole.is_testcase else None
     return render(request, "webfrontend/folder.html", {
-        "machine": machine, "target": target, "whole": whole, "mode": mode, "show": show,
-        "children": [c for c in children if c.matches(show)], "runs": listed,
+        "machine": machine, "target": target, "build": build, "whole": whole, "mode": mode, "show": show,
+        "children": [c for c in children if c.matches(show)], "page": page, "testcase": testcase,
         "categories": CONSISTENCY_CATEGORIES if mode == "consistency" else STATE_CATEGORIES,
         "crumbs": presentation.breadcrumbs(whole.path)})
 
 
 def run_detail(request, run_id):
     run = get_object_or_404(Run.objects.detail(), pk=run_id)
+    files = RunFolder(run)
     return render(request, "webfrontend/run.html", {
         "run": run, "label": presentation.run_label(run), "timings": [presentation.timing_bar(run)],
-        "texts": RunFolder(run).texts(), "artifacts": RunFolder(run).artifacts(),
+        "verdict": stored_verdict(run), "texts": files.texts(), "artifacts": files.artifacts(),
+        "build_log": presentation.tail(run.build.log, settings.DASHBOARD_TEXT_LIMIT),
         "plots": presentation.run_plots(run), "form": OverrideForm(run)})
 
 
 def run_plot(request, run_id, series_id):
     series = get_object_or_404(Series, pk=series_id, run_id=run_id)
-    quantity = request.GET.get("q") or None
+    quantity = params.text(request.GET, "q")
     if quantity is not None and quantity not in plots.quantities(series):
         raise Http404("no such quantity")
     if quantity is None and series.kind != "plot":
@@ -99,24 +167,44 @@ def run_file(request, run_id, relative):
     return FileResponse(path.open("rb"), as_attachment=True, filename=path.name)
 
 
+def _compared(ids: list[int]) -> list:
+    """Runs by id in the order asked (unknown ids dropped), with what the comparison shows - not their
+    series, which stay in the database until a plot asks for them, nor their builds' logs (each row would
+    carry its own copy)."""
+    runs = {r.pk: r for r in Run.objects.filter(pk__in=ids).select_related(
+        "build", "target", "machine", "testcase", "reference_run__build", "reference_run__target").defer(
+        "build__log", "reference_run__build__log").with_accepted()}
+    return [runs[i] for i in ids if i in runs]
+
+
+def _comparison(runs) -> dict:
+    """What a comparison page shows of ``runs``; the files are read only for the diff of exactly two runs."""
+    diffs = []
+    if len(runs) == 2:
+        texts = [RunFolder(r).texts() for r in runs]
+        diffs = presentation.text_diffs(runs[0], texts[0], runs[1], texts[1])
+    return {"runs": runs, "compared": [(r, presentation.run_label(r)) for r in runs],
+            "timings": presentation.timing_bars(runs), "diffs": diffs, "compare_limit": COMPARE_LIMIT,
+            "contents": len({r.testcase_hash for r in runs}),
+            "plots": presentation.compare_plots(runs, _shared_series(runs)) if len(runs) > 1 else []}
+
+
 def compare(request):
-    runs = Run.objects.selected(_ids(request))
-    texts = [RunFolder(r).texts() for r in runs]
-    return render(request, "webfrontend/compare.html", {
-        "runs": runs, "compared": [(r, presentation.run_label(r)) for r in runs],
-        "timings": presentation.timing_bars(runs),
-        "diffs": presentation.text_diffs(runs[0], texts[0], runs[1], texts[1]) if len(runs) == 2 else [],
-        "plots": presentation.compare_plots(runs, Series.objects.shared_by(runs))})
+    runs = _compared(params.id_list(request.GET, "run", COMPARE_LIMIT, "runs"))
+    return render(request, "webfrontend/compare.html", _comparison(runs))
 
 
 def compare_plot(request):
-    ids = _ids(request)
-    quantity = request.GET.get("q") or None
-    series = Series.objects.filter(run_id__in=ids, kind=request.GET.get("kind", ""),
-                                   name=request.GET.get("name", "")).select_related(
+    ids = params.id_list(request.GET, "run", COMPARE_LIMIT, "runs")
+    kind = params.choice(request.GET, "kind", Series.Kind.values)
+    name = params.text(request.GET, "name")
+    quantity = params.text(request.GET, "q")
+    if not ids or kind is None or name is None:
+        raise params.BadParameter("run, kind and name: all three are needed for a comparison plot")
+    series = Series.objects.filter(run_id__in=ids, kind=kind, name=name).select_related(
         "run__target", "run__build", "run__machine", "run__testcase")
     by_run = {s.run_id: s for s in series}
-    curves = [(presentation.short_label(by_run[i].run), by_run[i]) for i in dict.fromkeys(ids) if i in by_run]
+    curves = [(presentation.short_label(by_run[i].run), by_run[i]) for i in ids if i in by_run]
     if not curves or (quantity and quantity not in plots.quantities(curves[0][1])):
         raise Http404("no such series")
     return _png(plots.series_figure(curves, quantity or (None if curves[0][1].kind == "plot"
@@ -127,13 +215,9 @@ def consistency(request, run_id):
     run = get_object_or_404(Run.objects.detail(), pk=run_id)
     reference = Run.objects.reference_for(run)
     runs = [r for r in (reference, run) if r is not None]
-    texts = [RunFolder(r).texts() for r in runs]
     return render(request, "webfrontend/compare.html", {
-        "consistency_run": run, "reference": reference, "runs": runs,
-        "compared": [(r, presentation.run_label(r)) for r in runs], "timings": presentation.timing_bars(runs),
-        "results": run.consistency_results.all(), "form": OverrideForm(run),
-        "diffs": presentation.text_diffs(runs[0], texts[0], runs[1], texts[1]) if len(runs) == 2 else [],
-        "plots": presentation.compare_plots(runs, Series.objects.shared_by(runs))})
+        **_comparison(runs), "consistency_run": run, "reference": reference, "verdict": stored_verdict(run),
+        "results": run.consistency_results.all(), "form": OverrideForm(run)})
 
 
 def consistency_plot(request, run_id, result_id):
@@ -153,7 +237,7 @@ def consistency_plot(request, run_id, result_id):
 @login_required
 @require_POST
 def override(request, run_id):
-    run = get_object_or_404(Run.objects.detail(), pk=run_id)
+    run = get_object_or_404(Run.objects.prefetch_related("consistency_results"), pk=run_id)
     form = OverrideForm(run, request.POST)
     if form.is_valid():
         Override.objects.create(run=run, user=request.user, quantity=form.cleaned_data["quantity"],
@@ -165,20 +249,24 @@ def override(request, run_id):
     return redirect("consistency" if request.POST.get("next") == "consistency" else "run", run.pk)
 
 
-def history(request, target_id, testcase):
+def _history_runs(request, target_id, testcase):
     target = get_object_or_404(Target, pk=target_id)
     case = get_object_or_404(TestCase, path=testcase.strip("/"))
-    machine_id = request.GET.get("machine")
-    runs = Run.objects.history(target, case, machine_id if machine_id and machine_id.isdigit() else None)
+    machine_id = params.optional_id(request.GET, "machine")
+    return target, case, machine_id, Run.objects.history(target, case, machine_id)
+
+
+def history(request, target_id, testcase):
+    target, case, machine_id, runs = _history_runs(request, target_id, testcase)
+    runs = runs.select_related("target", "testcase")
     return render(request, "webfrontend/history.html", {
-        "target": target, "testcase": case, "runs": runs, "machine_id": machine_id or ""})
+        "target": target, "testcase": case, "page": _page(request, _run_list(runs)),
+        "machine_id": machine_id or ""})
 
 
 def history_plot(request, target_id, testcase):
-    target = get_object_or_404(Target, pk=target_id)
-    case = get_object_or_404(TestCase, path=testcase.strip("/"))
-    machine_id = request.GET.get("machine")
-    runs = list(Run.objects.history(target, case, machine_id if machine_id and machine_id.isdigit() else None))
+    target, case, machine_id, runs = _history_runs(request, target_id, testcase)
+    runs = list(runs.defer(*LIST_DEFERRED))
     if not runs:
         raise Http404("no runs")
     return _png(plots.history_figure(runs, case.path, target.name))
@@ -193,11 +281,10 @@ def sweeps(request):
 def sweep_plot(request, build_id, testcase, name):
     from io import BytesIO
 
-    from harness.models import Build
     from harness.sweep import find_sweep, plot
 
     build = get_object_or_404(Build.objects.select_related("target"), pk=build_id)
-    result = find_sweep(build, testcase.strip("/"), name)
+    result = find_sweep(build, testcase, name)
     if result is None:
         raise Http404("no such sweep")
     out = BytesIO()
@@ -208,8 +295,20 @@ def sweep_plot(request, build_id, testcase, name):
 
 
 def junit(request):
-    runs = Run.objects.junit(*(request.GET.get(k) if (request.GET.get(k) or "").isdigit() else None
-                               for k in ("machine", "target")))
-    response = HttpResponse(junit_xml(runs), content_type="application/xml")
+    """JUnit XML of the current builds' runs by harness.check's writer: what `harness check --junit` writes
+    for the same runs. One machine per report, as the CLI writes it (runs of two machines would collide)."""
+    machine = params.optional_id(request.GET, "machine")
+    target = params.optional_id(request.GET, "target")
+    if machine is None:
+        machines = list(Machine.objects.filter(Q(runs__build__current=True) & Q(runs__replaced=False))
+                        .distinct().order_by("name"))
+        if len(machines) > 1:
+            query = {"target": target} if target else {}
+            raise params.BadParameter(
+                f"machine: the store holds runs of {len(machines)} machines and a JUnit report is per machine "
+                "(as 'harness check' writes it); name one", links=[
+                    (m.name, reverse("junit") + "?" + urlencode({"machine": m.pk, **query})) for m in machines])
+        machine = machines[0].pk if machines else None
+    response = HttpResponse(stored_junit_xml(current_runs(machine, target)), content_type="application/xml")
     response["Content-Disposition"] = 'attachment; filename="junit.xml"'
     return response

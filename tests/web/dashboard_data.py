@@ -1,7 +1,8 @@
 """A small but complete store for the dashboard tests, made through the ORM with real run folders.
 
-Machine ws1; targets dem-v1 (the reference) and dem-master (two builds: an older and a newer commit);
+Machine ws1; targets dem-v1 (the reference) and dem-master (two builds: an older and the current commit);
 test cases contact_models/hertz/impact, contact_models/hooke/impact, packing/settle; runs in every state.
+Only the older master build's run (``older``) is not of a current build.
 """
 from __future__ import annotations
 
@@ -57,7 +58,8 @@ def make_run_folder(root: Path, run: Run, script_text: str, log_text: str = "", 
     folder = root / f"run-{run.pk}"
     (folder / "post").mkdir(parents=True, exist_ok=True)
     (folder / "in.impact.json").write_text(script_text)
-    (folder / "log.txt").write_text(log_text or f"log of {run.name}\nLoop time of 1.5 on 1 procs\n")
+    # the bundled engine's log (harness/adapters/dem.py log_file()); the targets here name no other engine
+    (folder / "log.dem").write_text(log_text or f"log of {run.name}\nLoop time of 1.5 on 1 procs\n")
     (folder / "stdout.txt").write_text(f"stdout of run {run.pk}\n")
     (folder / "stderr.txt").write_text(stderr)
     (folder / "run.json").write_text(json.dumps({"name": run.name, "testcase": run.testcase.path}))
@@ -79,6 +81,9 @@ def add_series(run: Run, ke: list[float]) -> None:
                                 "legend": ["torqueZ_(rotor)"]})
 
 
+#: test case content hashes (sha256 hex) the runs ran
+CONTENT = {"contact_models/hertz/impact": "1e" * 32, "contact_models/hooke/impact": "2f" * 32,
+           "packing/settle": "3a" * 32}
 TIMING = {"pair": 0.8, "neigh": 0.3, "comm": 0.1, "modify": 0.1, "output": 0.1, "other": 0.1, "total": 1.5}
 
 
@@ -89,20 +94,21 @@ def make_store(root: Path) -> dict:
     master = Target.objects.create(name="dem-master", definition={"revision": "HEAD"}, reference=ref_target)
     ref_build = Build.objects.create(target=ref_target, machine=ws1, revision="v1", commit="a" * 40,
                                      definition_hash="d1", status="complete", committed_at=T0,
-                                     commit_message="release v1", log="build ok")
+                                     commit_message="release v1", log="build ok", current=True)
     old_build = Build.objects.create(target=master, machine=ws1, revision="HEAD~1", commit="b" * 40,
                                      definition_hash="d2", status="complete",
                                      committed_at=T0 + timedelta(days=1), commit_message="tune damping")
     new_build = Build.objects.create(target=master, machine=ws1, revision="HEAD", commit="c" * 40,
                                      definition_hash="d2", status="complete",
                                      committed_at=T0 + timedelta(days=2),
-                                     commit_message="faster neighbor list", executable='["dem"]')
+                                     commit_message="faster neighbor list", executable='["dem"]', current=True)
     hertz = TestCase.objects.create(path="contact_models/hertz/impact")
     hooke = TestCase.objects.create(path="contact_models/hooke/impact")
     settle = TestCase.objects.create(path="packing/settle")
 
     def run(target, build, case, name, state, **kw):
         return Run.objects.create(machine=ws1, target=target, build=build, testcase=case, name=name,
+                                  testcase_hash=kw.pop("testcase_hash", CONTENT[case.path]),
                                   state=state, config={"name": name, "script": "in.impact.json",
                                                        "variables": {"dt": "1e-5"}, **kw.pop("config", {})},
                                   wall_time=kw.pop("wall_time", 1.5), timing=kw.pop("timing", TIMING),

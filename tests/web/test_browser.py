@@ -94,16 +94,19 @@ class BrowserTest(StaticLiveServerTestCase):
         assert self.image_loaded(".plots img")
         self.screenshot("dashboard_run.png")
 
-        # back to the list, select the two master runs of this test case, compare them
+        # back to the test case (it lists the current build's runs), on to its history over the builds of
+        # dem-master, select the two master runs there, compare them
         page.go_back()
+        assert page.get_by_label(f"select run {s['older'].pk}").count() == 0
+        page.get_by_role("link", name="history over the builds of dem-master").click()
         page.get_by_label(f"select run {s['older'].pk}").check()
         page.get_by_label(f"select run {s['inconsistent'].pk}").check()
         page.get_by_role("button", name="compare selected runs").click()
         assert page.locator("h1").inner_text() == "Comparison of 2 runs"
         assert page.locator(".timing-row").count() == 2
         diff = page.locator("details.diff", has_text="input script")
-        # the list shows the newer build first, so the diff goes from the newer run to the older one
-        assert '-{"run": 2000, "dt": 2e-5}\n+{"run": 2000, "dt": 1e-5}' in diff.inner_text()
+        # the history lists the older build first, so the diff goes from the older run to the newer one
+        assert '-{"run": 2000, "dt": 1e-5}\n+{"run": 2000, "dt": 2e-5}' in diff.inner_text()
         assert page.get_by_text("run configuration: identical").is_visible()
         assert self.image_loaded(".plots img")
         self.screenshot("dashboard_compare.png")
@@ -123,6 +126,9 @@ class BrowserTest(StaticLiveServerTestCase):
         page.get_by_role("link", name="runs of this test case over the builds of dem-master").click()
         assert page.locator("h1").inner_text() == "History of contact_models/hertz/impact on dem-master"
         builds = page.locator("table.runs tbody tr td:nth-child(4)").all_inner_texts()
-        assert builds == ["dem-master@HEAD~1 bbbbbbb", "dem-master@HEAD ccccccc"]
+        assert builds == ["dem-master@HEAD~1", "dem-master@HEAD current"]
+        computed_on = page.locator("table.runs tbody tr td:nth-child(8)").all_inner_texts()
+        assert computed_on == ["commit bbbbbbbbbb, test case 1e1e1e1e1e, reference dem-v1 aaaaaaaaaa",
+                               "commit cccccccccc, test case 1e1e1e1e1e, reference dem-v1 aaaaaaaaaa"]
         assert self.image_loaded("figure img")
         self.screenshot("dashboard_history.png")

@@ -4,19 +4,21 @@ from types import SimpleNamespace
 from webfrontend.runfiles import RunFolder
 
 
-def folder_with(tmp_path, config, files):
+def folder_with(tmp_path, config, files, engine="dem"):
     for name, text in files.items():
         (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / name).write_text(text)
-    return RunFolder(SimpleNamespace(folder=str(tmp_path), config=config))
+    target = SimpleNamespace(definition={"engine": engine})
+    return RunFolder(SimpleNamespace(folder=str(tmp_path), config=config, target=target))
 
 
 def test_script_per_engine_family_and_liggghts_log(tmp_path):
     rf = folder_with(tmp_path, {"script": {"dem": "scene.json", "liggghts": "in.scene"}},
-                     {"in.scene": "run 100\n", "log.liggghts": "Loop time\n", "stdout.txt": "out\n"})
+                     {"in.scene": "run 100\n", "log.liggghts": "Loop time\n", "log.dem": "not this engine\n",
+                      "stdout.txt": "out\n"}, engine="liggghts")
     texts = rf.texts()
     assert (texts["input script"].name, texts["input script"].text) == ("in.scene", "run 100\n")
-    assert texts["log"].name == "log.liggghts"
+    assert texts["log"].name == "log.liggghts"  # the LIGGGHTS adapter's log, not another engine's
     assert texts["stderr"] is None
     assert '"liggghts": "in.scene"' in texts["run configuration"].text
 
@@ -38,4 +40,19 @@ def test_resolve_stays_inside(tmp_path):
     assert rf.resolve("log.txt") == (run_dir / "log.txt").resolve()
     for bad in ("../outside.txt", "/etc/passwd", "link", "", "log.txt\x00", "."):
         assert rf.resolve(bad) is None, bad
-    assert RunFolder(SimpleNamespace(folder="", config={})).texts()["log"] is None
+    assert RunFolder(SimpleNamespace(folder="", config={}, target=None)).texts()["log"] is None
+    assert rf.resolve("x" * 5000) is None  # too long for the file system: no such file, not an error
+
+
+def test_log_named_by_the_targets_engine_adapter(tmp_path):
+    from harness.adapters import get_adapter
+
+    files = {"log.dem": "bundled engine log\n", "log.liggghts": "LIGGGHTS log\n", "log.txt": "a stray file\n"}
+    for engine in ("dem", "liggghts"):
+        texts = folder_with(tmp_path / engine, {}, files, engine=engine).texts()
+        assert texts["log"].name == get_adapter(engine).log_file()
+    # a target definition without "engine" is the bundled engine's (harness/targets.py)
+    rf = RunFolder(SimpleNamespace(folder=str(tmp_path / "dem"), config={}, target=SimpleNamespace(definition={})))
+    assert rf.texts()["log"].text == "bundled engine log\n"
+    unknown = folder_with(tmp_path / "other", {}, files, engine="yade")
+    assert unknown.texts()["log"] is None  # an adapter this machine lacks: no guessing

@@ -51,3 +51,27 @@ def timing_categories():
 def num(value):
     """A float in its shortest exact-enough form (1000, 4.59e-05); '-' for none."""
     return "-" if value is None else f"{value:.6g}"
+
+
+@register.inclusion_tag("webfrontend/parts/provenance.html")
+def provenance(run, reference=True):
+    """Short commit of the run's build, its test case content hash and the reference run's commit."""
+    from webfrontend.presentation import provenance as facts
+
+    return {**facts(run), "show_reference": reference}
+
+
+@register.simple_tag(takes_context=True)
+def query_with(context, **changes):
+    """The current query string with ``changes`` applied (a page link keeps mode, filter and machine)."""
+    query = context["request"].GET.copy()
+    for key, value in changes.items():
+        query[key] = value
+    return query.urlencode()
+
+
+@register.simple_tag
+def compare_limit():
+    from django.conf import settings
+
+    return settings.DASHBOARD_COMPARE_LIMIT

@@ -1,0 +1,62 @@
+"""Verdicts from what the store holds: the RunVerdict ``harness check`` gives, built from a run's stored
+ConsistencyResult rows instead of a fresh comparison, so that the dashboard (run page, /junit.xml) and the
+CLI cannot disagree - the rules (which states fail, how an override is honoured, how JUnit is written) stay
+in harness.check and harness.rules.
+
+What the store cannot tell: whether a test case changed on disk since its run (``harness check`` reads the
+test cases and reports such a run as stale). A post-processed run the check has not scored yet says so in its
+message (``harness check`` scores every such run before it writes its report, so its reports never have one).
+"""
+from __future__ import annotations
+
+from harness.check import CheckReport, RunVerdict, junit_xml, verdict_of
+
+#: a checkable run the check has not scored yet (its consistency is still blank)
+NOT_CHECKED = "not checked against the reference yet (run 'harness check')"
+
+
+def stored_results(run) -> list:
+    """The run's ConsistencyResult rows in the order ``harness check`` stored them (prefetched rows are used
+    as they are)."""
+    return sorted(run.consistency_results.all(), key=lambda r: r.pk)
+
+
+def has_reference_target(run) -> bool:
+    return run.target.reference_id is not None
+
+
+def stored_verdict(run) -> RunVerdict:
+    """What ``harness check`` said (or would say) of ``run``, from the stored results and overrides."""
+    verdict = verdict_of(run, stored_results(run), has_reference_target(run))
+    if (verdict.status == "passed" and not verdict.message and has_reference_target(run)
+            and run.state == "post_processed" and not run.consistency):
+        verdict.message = NOT_CHECKED
+    return verdict
+
+
+def current_runs(machine_id: int | None = None, target_id: int | None = None):
+    """Runs of each target's current build on each machine, not replaced by a newer run of other content:
+    the runs ``harness check`` gives verdicts on (optionally of one machine and target), in its order."""
+    from django.db.models import Prefetch
+
+    from harness.models import ConsistencyResult, Override, Run
+
+    runs = Run.objects.filter(build__current=True, replaced=False)
+    if machine_id is not None:
+        runs = runs.filter(machine_id=machine_id)
+    if target_id is not None:
+        runs = runs.filter(target_id=target_id)
+    return (runs.select_related("machine", "target", "build", "testcase", "reference_run__target",
+                                "reference_run__build")
+            .prefetch_related(Prefetch("consistency_results", queryset=ConsistencyResult.objects.order_by("pk")),
+                              Prefetch("overrides", queryset=Override.objects.select_related("user")))
+            .order_by("machine__name", "target__name", "testcase__path", "name"))
+
+
+def stored_report(runs) -> CheckReport:
+    return CheckReport(verdicts=[stored_verdict(run) for run in runs])
+
+
+def stored_junit_xml(runs) -> str:
+    """JUnit XML of ``runs`` (e.g. ``current_runs(machine, target)``) by harness.check's writer."""
+    return junit_xml(stored_report(runs))
