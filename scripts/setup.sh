@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-apt_packages=(liggghts liggghts-doc openmpi-bin chromium make gcc)
+apt_packages=(liggghts liggghts-doc lammps lammps-examples yade openmpi-bin chromium make gcc)
 if [ "${HARNESS_SKIP_APT:-0}" != 1 ] && command -v apt-get >/dev/null 2>&1; then
     missing=()
     for p in "${apt_packages[@]}"; do
