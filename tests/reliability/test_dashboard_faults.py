@@ -434,6 +434,7 @@ def test_createsuperuser_first_on_a_fresh_workspace(tmp_path):
                            "--email", "reviewer@example.org"], cwd=REPO, capture_output=True, text=True, timeout=300,
                           env=server_env(tmp_path, DJANGO_SUPERUSER_PASSWORD="pw-for-tests-only-7"))
     assert done.returncode == 0, done.stdout + done.stderr
+    assert "unapplied migration" not in done.stdout + done.stderr
     with sqlite3.connect(tmp_path / "home" / "harness.sqlite3") as db:
         assert db.execute("SELECT username, is_superuser FROM auth_user").fetchall() == [("reviewer", 1)]
 

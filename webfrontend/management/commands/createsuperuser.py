@@ -7,9 +7,10 @@ from harness.schema import SchemaBehind, ensure_schema
 
 
 class Command(CreateSuperuser):
-    def handle(self, *args, **options):
+    def check_migrations(self):
+        # Django calls this before handle() (requires_migrations_checks) and would warn of unapplied ones
         try:
-            ensure_schema(options.get("database") or "default")
+            ensure_schema()
         except SchemaBehind as exc:
             raise CommandError(str(exc)) from None
-        return super().handle(*args, **options)
+        super().check_migrations()
