@@ -196,6 +196,12 @@ class HostileInputTest(TestCase):
             assert b"Not found (404)" in response.content and not leaks(response.content)
         self.assertEqual(self.client.get(f"/runs/{9223372036854775807}/").status_code, 404)  # the largest id
 
+    def test_requests_django_refuses_get_the_dashboards_400(self):
+        for response in (self.client.get("/compare/?" + "&".join(f"run={i}" for i in range(1, 1500))),  # > 1000 fields
+                         self.client.get("/", HTTP_HOST="evil.example.org")):                             # unknown host
+            assert response.status_code == 400
+            assert b"Bad request (400)" in response.content and not leaks(response.content)
+
     def test_error_pages_are_the_dashboards_own(self):
         response = self.client.get("/no/such/page/")
         assert response.status_code == 404
