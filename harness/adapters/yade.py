@@ -8,7 +8,7 @@ run.config's ``variables`` as ``NAME=VALUE`` script arguments::
 ``launch.py`` loads the YADE launcher as a module (YADE's documented way to use it from Python) so that no
 TCP server is started: ``yade -n -x`` opens a Python prompt on port 9000 and an info server on 21000 (or the
 next free ones) for every run, which parallel runs do not need. When the executable is not a Python file
-(a wrapper of another build), the adapter falls back to ``yade -n -x script.py ARG ...``.
+(a wrapper of another build), the adapter falls back to ``env PYTHONPATH=yade_support yade -n -x script.py ARG ...``.
 
 YADE prints no thermo table, so a script reports through the helper ``yade_series`` (importable in any script
 the harness runs, ``harness/adapters/yade_support/yade_series.py``): ``thermo.csv`` (step, time, atoms, ke,
@@ -98,8 +98,9 @@ class YadeAdapter(EngineAdapter):
         arguments = [f"{name}={value}" for name, value in (variables or {}).items()]
         python = python_of(executable[0]) if len(executable) == 1 else None
         if python is None:
-            # not a Python launcher: YADE's own batch mode (it opens its TCP servers on free ports)
-            return executable + ["-n", "-x", script] + arguments
+            # not a Python launcher: YADE's own batch mode (it opens its TCP servers on free ports), with the
+            # helper's folder as PYTHONPATH so that 'import yade_series' works there too
+            return ["env", f"PYTHONPATH={SUPPORT}"] + executable + ["-n", "-x", script] + arguments
         prefix = [python, str(LAUNCHER), "--log", log]
         if mpi:
             prefix += ["--refuse", "run type mpi: the harness runs YADE serially (OpenMP threads with -j in "
