@@ -54,5 +54,5 @@ def test_log_named_by_the_targets_engine_adapter(tmp_path):
     # a target definition without "engine" is the bundled engine's (harness/targets.py)
     rf = RunFolder(SimpleNamespace(folder=str(tmp_path / "dem"), config={}, target=SimpleNamespace(definition={})))
     assert rf.texts()["log"].text == "bundled engine log\n"
-    unknown = folder_with(tmp_path / "other", {}, files, engine="yade")
+    unknown = folder_with(tmp_path / "other", {}, files, engine="no-such-engine")
     assert unknown.texts()["log"] is None  # an adapter this machine lacks: no guessing
