@@ -36,21 +36,41 @@ def _commands():
     return found
 
 
+def _global_options(parser, defaults: bool) -> None:
+    """--machine, --home, --targets: before the subcommand (with defaults) or after it (overriding them)."""
+    def default(value):
+        return value if defaults else argparse.SUPPRESS
+
+    parser.add_argument("--machine", default=default(os.environ.get("HARNESS_MACHINE") or socket.gethostname()),
+                        help="machine name runs are recorded under (default: $HARNESS_MACHINE, else hostname)")
+    parser.add_argument("--home", default=default(None), help="workspace folder: store, builds, runs (default: "
+                        "$HARNESS_HOME, else .harness/ in the project)")
+    parser.add_argument("--targets", dest="targets_dir", default=default(None), help="folder of target "
+                        "definitions (default: $HARNESS_TARGETS, else targets/ of the project)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="harness", description="Regression and acceptance test harness "
                                      "for DEM codes (build targets, run test cases, check consistency).")
-    parser.add_argument("--machine", default=os.environ.get("HARNESS_MACHINE") or socket.gethostname(),
-                        help="machine name runs are recorded under (default: hostname)")
-    parser.add_argument("--home", help="workspace folder: store, builds, runs (default: $HARNESS_HOME, "
-                        "else .harness/ in the project)")
-    parser.add_argument("--targets", dest="targets_dir", help="folder of target definitions (default: "
-                        "$HARNESS_TARGETS, else targets/ of the project)")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    _global_options(parser, defaults=True)
+    after = argparse.ArgumentParser(add_help=False)
+    _global_options(after, defaults=False)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for module in _commands():
-        command = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
+        command = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP, parents=[after])
         module.configure(command)
         command.set_defaults(_run=module.run)
     return parser
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("dem-harness")
+    except PackageNotFoundError:
+        return "unknown (not installed)"
 
 
 def _terminate(signum, frame):

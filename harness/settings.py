@@ -1,10 +1,10 @@
 """Django settings of the store alone (the CLI uses these; webfrontend.settings extends them).
 
-SQLite in ``$HARNESS_HOME/harness.sqlite3`` by default; PostgreSQL (or any Django backend) when
-``HARNESS_DATABASE_URL`` is set, e.g. ``postgresql://user:pass@host:5432/dbname``.
+SQLite in ``<workspace>/harness.sqlite3`` by default; PostgreSQL when ``HARNESS_DATABASE_URL`` is set, e.g.
+``postgresql://user:pass@host:5432/dbname`` or ``postgresql://user@/dbname?host=/run/postgresql`` (a Unix
+socket), which needs the optional ``psycopg`` (``pip install -e .[postgresql]``).
 """
 import os
-from urllib.parse import urlparse, unquote
 
 from harness.workspace import workspace
 
@@ -20,37 +20,33 @@ INSTALLED_APPS = [
 ]
 
 
-def _database_from_url(url: str) -> dict:
-    parsed = urlparse(url)
-    engines = {"postgres": "postgresql", "postgresql": "postgresql", "sqlite": "sqlite3"}
-    scheme = parsed.scheme.split("+")[0]
-    if scheme not in engines:
-        raise ValueError(f"HARNESS_DATABASE_URL: unsupported scheme {parsed.scheme!r}")
-    if scheme == "sqlite":
-        return {"ENGINE": "django.db.backends.sqlite3", "NAME": unquote(parsed.path)}
-    return {
-        "ENGINE": "django.db.backends.postgresql",
-        "NAME": unquote(parsed.path.lstrip("/")),
-        "USER": unquote(parsed.username or ""),
-        "PASSWORD": unquote(parsed.password or ""),
-        "HOST": parsed.hostname or "",
-        "PORT": str(parsed.port or ""),
-    }
+#: SQLite: several harness processes (run, check, import, serve) share one file. WAL lets readers go on while
+#: one writes; IMMEDIATE takes the write lock when a transaction starts, so two writers queue on the busy
+#: timeout instead of one failing at once with "database is locked" when it upgrades a read lock.
+SQLITE_OPTIONS = {"timeout": 120, "transaction_mode": "IMMEDIATE",
+                  "init_command": "PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;"}
+
+
+def database_from_url(url: str) -> dict:
+    """Django's DATABASES entry for a URL, parsed by dj-database-url: ``postgresql://user:pass@host:5432/db``,
+    a Unix socket ``postgresql://user@/db?host=/run/postgresql``, or ``sqlite:////path/store.sqlite3``."""
+    import dj_database_url
+
+    try:
+        config = dj_database_url.parse(url)
+    except ValueError as exc:
+        raise ValueError(f"HARNESS_DATABASE_URL: {exc}") from None
+    if config["ENGINE"] not in ("django.db.backends.postgresql", "django.db.backends.sqlite3"):
+        raise ValueError(f"HARNESS_DATABASE_URL: unsupported database {config['ENGINE'].rsplit('.', 1)[-1]!r} "
+                         "(postgresql or sqlite)")
+    if config["ENGINE"].endswith("sqlite3"):
+        config["OPTIONS"] = {**SQLITE_OPTIONS, **config.get("OPTIONS", {})}
+    return config
 
 
 if os.environ.get("HARNESS_DATABASE_URL"):
-    DATABASES = {"default": _database_from_url(os.environ["HARNESS_DATABASE_URL"])}
+    DATABASES = {"default": database_from_url(os.environ["HARNESS_DATABASE_URL"])}
 else:
     workspace().home.mkdir(parents=True, exist_ok=True)
-    DATABASES = {
-        "default": {
-            "ENGINE": "django.db.backends.sqlite3",
-            "NAME": str(workspace().database),
-            # Several harness processes (run, check, import, serve) share one file. WAL lets readers go on
-            # while one writes; IMMEDIATE takes the write lock when a transaction starts, so two writers
-            # queue on the busy timeout instead of one failing at once with "database is locked" when
-            # it upgrades a read lock.
-            "OPTIONS": {"timeout": 120, "transaction_mode": "IMMEDIATE",
-                        "init_command": "PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;"},
-        }
-    }
+    DATABASES = {"default": {"ENGINE": "django.db.backends.sqlite3", "NAME": str(workspace().database),
+                             "OPTIONS": SQLITE_OPTIONS}}

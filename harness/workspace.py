@@ -79,10 +79,15 @@ class Workspace:
     def database(self) -> Path:
         return self.home / "harness.sqlite3"
 
+    def roots(self) -> list[Path]:
+        """The workspace and where its own folders really are: ``runs/`` or ``builds/`` may be symlinks to
+        another disk, and what lies below them is still the workspace's."""
+        return [self.home] + [p.resolve() for p in (self.runs, self.builds, self.sweeps) if p.is_symlink()]
+
     def contains(self, path) -> bool:
         """Whether ``path`` (symlinks resolved) lies strictly inside the workspace."""
         resolved = Path(path).resolve()
-        return resolved != self.home and self.home in resolved.parents
+        return any(root in resolved.parents for root in self.roots())
 
     def remove_tree(self, path) -> None:
         """Delete a file or folder inside the workspace; anything else is refused with a UserError.
@@ -91,7 +96,8 @@ class Workspace:
         """
         path = Path(path)
         parent = path.parent.resolve()
-        if not (parent == self.home or self.home in parent.parents) or path.name in ("", ".", ".."):
+        inside = any(parent == root or root in parent.parents for root in self.roots())
+        if not inside or path.name in ("", ".", ".."):
             raise UserError(f"refusing to delete {path}: it is not inside the workspace {self.home}")
         target = parent / path.name
         if target.is_symlink() or target.is_file():

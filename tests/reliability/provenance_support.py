@@ -67,8 +67,9 @@ def harness_command(project: dict, *args: str, machine: str = "m1") -> list[str]
             "--targets", str(project["targets"]), *args]
 
 
-def harness(project: dict, *args: str, machine: str = "m1", timeout: float = 300) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+def harness(project: dict, *args: str, machine: str = "m1", timeout: float = 300, env: dict | None = None
+            ) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(ROOT), **(env or {})}
     env.pop("HARNESS_HOME", None)
     return subprocess.run(harness_command(project, *args, machine=machine), cwd=ROOT, env=env,
                           capture_output=True, text=True, timeout=timeout)
