@@ -107,6 +107,11 @@ def main(argv):
         traceback.print_exc()
         print(_error_line(exc, script), file=sys.stderr)
         code = 1
+    if launcher.O.running:
+        # 'yade -x' ends a simulation the script left running in the background (O.run() without wait) when the
+        # script ends; pausing it first lets the process exit cleanly instead of on a signal
+        launcher.O.pause()
+        print(f"simulation left running by the script paused at iteration {launcher.O.iter}")
     print(f"exit code {code}")
     sys.stdout.flush()
     sys.stderr.flush()
