@@ -117,9 +117,12 @@ def main(argv):
     sys.stderr.flush()
     sys.stdout, sys.stderr = sys.stdout.stream, sys.stderr.stream
     log.close()
-    # YADE's own exit path: skips destructors of the plug-ins (they may crash at interpreter shutdown)
-    launcher.O.exitNoBacktrace(code)
-    return code
+    sys.stdout.flush()
+    sys.stderr.flush()
+    # Leave without running destructors: YADE's plug-ins may crash while the interpreter shuts down (its own
+    # exitNoBacktrace then reports "Yade: normal exit." and ends on SIGTERM, e.g. after a background run or a
+    # matplotlib figure). Everything the harness reads was written and closed above.
+    os._exit(code)
 
 
 if __name__ == "__main__":
