@@ -1,9 +1,10 @@
 """Bringing the store's schema up to date when a program opens it (the dashboard's servers, createsuperuser).
 
-The embedded store (SQLite, one file on this machine) is migrated on open, under the workspace lock
-``migrate`` - the one the CLI's ``harness.store.setup_store`` takes - so that two servers, or a server and
-a harness command, starting at once on a new workspace do not both migrate it. Any other database (PostgreSQL, possibly shared by several machines, where a
-file lock protects nothing) is never migrated behind the user's back: ``SchemaBehind`` names the command.
+Every program that opens the store - the CLI (``harness.store.setup_store``), the dashboard's servers,
+``createsuperuser`` - brings its schema up to date here, so that two of them starting at once never both
+migrate it: an SQLite store (one file on this machine) under the workspace lock ``migrate``; a PostgreSQL
+store, possibly shared by several machines where a file lock protects nothing, under a PostgreSQL advisory
+lock held on the server.
 """
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ from __future__ import annotations
 LOCK_NAME = "migrate"
 #: seconds to wait for another process that is migrating the same store
 LOCK_TIMEOUT = 600
+#: key of the PostgreSQL advisory lock held while migrating (a constant only the harness uses)
+ADVISORY_LOCK = 0x64656D68
 
 
 class SchemaBehind(Exception):
@@ -28,31 +31,45 @@ def pending_migrations(using: str = "default") -> list[str]:
 
 
 def ensure_schema(using: str = "default") -> list[str]:
-    """Apply pending migrations to an SQLite store (under the lock); returns the names applied.
+    """Apply pending migrations under the store's lock; returns the names applied (empty: none pending).
 
-    Raises SchemaBehind for other databases with pending migrations, naming the command that applies them.
+    Raises SchemaBehind when another process holds the lock for longer than ``LOCK_TIMEOUT``.
     """
-    from django.core.management import call_command
     from django.db import connections
     from filelock import Timeout
 
     from harness.workspace import workspace
 
-    pending = pending_migrations(using)
-    if not pending:
+    if not pending_migrations(using):
         return []
-    if connections[using].vendor != "sqlite":
-        raise SchemaBehind(f"the store's schema is older than this dashboard ({len(pending)} migration(s) to "
-                           f"apply, first {pending[0]}): run 'python manage.py migrate' once, then start "
-                           "the server again")
+    if connections[using].vendor == "postgresql":
+        return _migrate_on_server(using)
     try:
         with workspace().lock(LOCK_NAME, timeout=LOCK_TIMEOUT):
-            # another process may have migrated while this one waited for the lock
-            pending = pending_migrations(using)
-            if pending:
-                call_command("migrate", database=using, interactive=False, verbosity=0)
+            return _migrate(using)
     except Timeout:
         raise SchemaBehind(f"another process has been migrating the store for {LOCK_TIMEOUT} s (lock "
                            f"{workspace().locks / LOCK_NAME}.lock); wait for it or run "
                            "'python manage.py migrate'") from None
+
+
+def _migrate(using: str) -> list[str]:
+    from django.core.management import call_command
+
+    # another process may have migrated while this one waited for the lock
+    pending = pending_migrations(using)
+    if pending:
+        call_command("migrate", database=using, interactive=False, verbosity=0)
     return pending
+
+
+def _migrate_on_server(using: str) -> list[str]:
+    from django.db import connections
+
+    with connections[using].cursor() as cursor:
+        cursor.execute("SET lock_timeout = %s", [f"{LOCK_TIMEOUT}s"])
+        cursor.execute("SELECT pg_advisory_lock(%s)", [ADVISORY_LOCK])
+        try:
+            return _migrate(using)
+        finally:
+            cursor.execute("SELECT pg_advisory_unlock(%s)", [ADVISORY_LOCK])
