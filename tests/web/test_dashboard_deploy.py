@@ -9,6 +9,7 @@ import socket
 import subprocess
 import sys
 import time
+import urllib.error
 import urllib.request
 
 from harness.commands import serve
@@ -103,3 +104,42 @@ def test_production_serves_hashed_static_files_over_https(tmp_path):
     assert (insecure, page, css_status) == ("301", "200", "200")  # http is redirected to https
     assert hsts.startswith("max-age=31536000")
     assert int(bars) >= 1
+
+
+def test_harness_serve_production_runs_gunicorn_with_debug_off(tmp_path):
+    port = free_port()
+    env = env_for(tmp_path, HARNESS_SECRET_KEY=secrets.token_urlsafe(64), HARNESS_ALLOWED_HOSTS="harness.example.org")
+    env.pop("HARNESS_HOME")  # the workspace comes from --home, as a user gives it
+    command = [sys.executable, "-m", "harness.cli", "--home", str(tmp_path / "prod-home"), "serve", "--production",
+               "--port", str(port), "--workers", "2"]
+    process = subprocess.Popen(command, cwd=PROJECT_ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                               start_new_session=True)
+
+    def get(path):
+        request = urllib.request.Request(f"http://127.0.0.1:{port}{path}",
+                                         headers={"Host": "harness.example.org", "X-Forwarded-Proto": "https"})
+        try:
+            with urllib.request.urlopen(request, timeout=5) as response:
+                return response.status, response.headers, response.read().decode()
+        except urllib.error.HTTPError as error:
+            return error.code, error.headers, error.read().decode()
+
+    try:
+        deadline = time.monotonic() + 90
+        while True:
+            try:
+                status, headers, body = get("/")
+                break
+            except OSError:
+                assert process.poll() is None, process.stdout.read().decode()
+                assert time.monotonic() < deadline, "gunicorn did not answer within 90 s"
+                time.sleep(0.3)
+        assert status == 200 and "gunicorn" in headers.get("Server", "")
+        assert headers["Strict-Transport-Security"].startswith("max-age=31536000")
+        missing_status, _headers, missing = get("/runs/999999/")
+        assert missing_status == 404 and "Traceback" not in missing and "SECRET" not in missing
+        assert (tmp_path / "prod-home" / "harness.sqlite3").is_file()   # the --home workspace, migrated
+        assert (tmp_path / "prod-home" / "static" / "staticfiles.json").is_file()   # collected, hashed
+    finally:
+        os.killpg(process.pid, signal.SIGTERM)
+        process.wait(timeout=30)
