@@ -41,9 +41,10 @@ def generate(total_runs: int) -> dict:
     for m in machines:
         for t in targets:
             for b in range(builds_per_target):
+                # the newest build is the current one: the overview counts its runs
                 build = Build.objects.create(target=t, machine=m, revision=f"r{b}", commit=f"{b:040d}",
                                              definition_hash="h", status="complete",
-                                             committed_at=t0 + timedelta(days=b))
+                                             committed_at=t0 + timedelta(days=b), current=b == builds_per_target - 1)
                 for k, case in enumerate(cases):
                     for name in run_names:
                         state = states[(k + b + len(runs)) % len(states)]

@@ -47,8 +47,8 @@ def ensure_target(target: TargetDefinition):
 
     row, _ = Target.objects.get_or_create(name=target.name)
     row.definition = target.as_dict()
-    if target.reference:
-        row.reference = Target.objects.get_or_create(name=target.reference)[0]
+    # a definition that dropped its reference drops it in the store too
+    row.reference = Target.objects.get_or_create(name=target.reference)[0] if target.reference else None
     row.save()
     return row
 

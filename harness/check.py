@@ -55,7 +55,7 @@ def series_of(run) -> list[dict]:
 def _overrides(run) -> dict[str, str]:
     """quantity ('' = whole run) -> 'user: reason' of the reviewer's overrides."""
     out = {}
-    for override in run.overrides.all().select_related("user"):
+    for override in run.overrides.all():  # prefetched with their users by the callers that list many runs
         who = override.user.get_username() if override.user else "someone"
         out[override.quantity] = f"{who}: {override.reason}"
     return out
@@ -145,6 +145,9 @@ def current_content(target) -> dict[tuple[str, str], str] | None:
 def check_targets(targets, machine: str, pattern: str | None = None) -> CheckReport:
     """Check every run of each target's current build at the test case content of now (``pattern``: only
     runs whose ``testcase/run`` match, as ``-k``); failed and stale runs are reported too."""
+    from django.db.models import Prefetch
+
+    from harness.models import Override
     from harness.testcases import matches
 
     from harness.models import Run
@@ -158,7 +161,9 @@ def check_targets(targets, machine: str, pattern: str | None = None) -> CheckRep
                                    f"(run 'harness build {target.name}' or 'harness run {target.name}')")
             continue
         runs = (Run.objects.filter(build=build, machine__name=machine, replaced=False)
-                .select_related("testcase", "machine", "target", "build").order_by("testcase__path", "name"))
+                .select_related("testcase", "machine", "target", "build")
+                .prefetch_related(Prefetch("overrides", queryset=Override.objects.select_related("user")))
+                .order_by("testcase__path", "name"))
         if not runs.exists():
             report.problems.append(f"target {target.name!r}: no runs of its current build {build.commit[:12]} "
                                    f"on machine {machine!r} (run 'harness run {target.name}')")
