@@ -162,3 +162,35 @@ def compare_plots(runs, shared: dict) -> list[dict]:
             out.append({"title": f"{name}: {quantity} ({present})",
                         "url": reverse("compare-plot") + "?" + urlencode({**base, "q": quantity}, doseq=True)})
     return out
+
+
+def build_label(build) -> str:
+    """A build in a choice list and a comparison heading: target@revision (commit)."""
+    return f"{build.target.name}@{revision_label(build)}"
+
+
+def comparison_rows(comparison) -> list[dict]:
+    """The rows of ``harness compare`` (harness.compare.rows: same cells, same order), each with its pair so a
+    row can link to the two runs and their plots.
+
+    Each row's cells come from ``rows`` over that pair alone, so that the dashboard's cells are the CLI's; the
+    order is the one ``rows`` gives the whole comparison (outcome, then test case and run).
+    """
+    from harness.compare import Comparison, rows
+
+    header, *table = rows(comparison)
+    rank = {}
+    for row in table:
+        rank.setdefault(row[2], len(rank))
+    out = []
+    for pair in comparison.pairs:
+        single = Comparison(comparison.label_a, comparison.label_b, comparison.commit_a, comparison.commit_b,
+                            [pair])
+        cells = rows(single)[1]
+        link = None
+        if pair.a is not None and pair.b is not None:
+            link = reverse("compare") + "?" + urlencode({"run": [pair.a.pk, pair.b.pk]}, doseq=True)
+        out.append({"pair": pair, "cells": cells, "link": link,
+                    "failing": pair.outcome in ("new_failure", "inconsistent")})
+    out.sort(key=lambda r: (rank[r["pair"].outcome], r["pair"].testcase, r["pair"].run))
+    return out

@@ -20,6 +20,7 @@ urlpatterns = [
     path("runs/<id:run_id>/consistency/<id:result_id>.png", views.consistency_plot, name="consistency-plot"),
     path("runs/<id:run_id>/override/", views.override, name="override"),
     path("compare/", views.compare, name="compare"),
+    path("builds/compare/", views.compare_builds_page, name="compare-builds"),
     path("compare/plot.png", views.compare_plot, name="compare-plot"),
     path("history/<id:target_id>/<relpath:testcase>/plot.png", views.history_plot, name="history-plot"),
     path("history/<id:target_id>/<relpath:testcase>/", views.history, name="history"),

@@ -29,6 +29,8 @@ from webfrontend.runfiles import RunFolder
 #: runs one comparison shows at most: each adds a timing bar and a curve to every plot, and beyond a few
 #: dozen the page says nothing more (the page says so; more is a 400 naming the limit)
 COMPARE_LIMIT = settings.DASHBOARD_COMPARE_LIMIT
+#: builds the build comparison form offers at most
+BUILD_CHOICE_LIMIT = 500
 #: rows of a run list per page
 LIST_PAGE_SIZE = settings.DASHBOARD_LIST_PAGE_SIZE
 MODES = ("state", "consistency")
@@ -292,6 +294,40 @@ def sweep_plot(request, build_id, testcase, name):
     response = HttpResponse(out.getvalue(), content_type="image/png")
     response["Cache-Control"] = "max-age=60"
     return response
+
+
+def _build_choices():
+    """Complete builds to compare, grouped by machine and target, newest commit first (bounded: a store with
+    thousands of builds lists the newest ``BUILD_CHOICE_LIMIT``)."""
+    builds = (Build.objects.filter(status=Build.Status.COMPLETE).select_related("target", "machine")
+              .only("id", "revision", "commit", "committed_at", "current", "target__name", "machine__name")
+              .order_by("machine__name", "target__name", "-committed_at", "-id")[:BUILD_CHOICE_LIMIT])
+    groups: dict = {}
+    for build in builds:
+        groups.setdefault(f"{build.target.name} on {build.machine.name}", []).append(build)
+    return groups
+
+
+def compare_builds_page(request):
+    """Two builds side by side: what ``harness compare A B`` prints (harness.compare.compare_builds), each row
+    linking to the two runs' comparison with the consistency bands of B around A."""
+    from harness.compare import compare_builds, rows, summary
+
+    a_id, b_id = params.optional_id(request.GET, "a"), params.optional_id(request.GET, "b")
+    context = {"choices": _build_choices(), "a_id": a_id, "b_id": b_id}
+    if a_id is not None and b_id is not None:
+        builds = Build.objects.select_related("target", "machine").defer("log")
+        a, b = get_object_or_404(builds, pk=a_id), get_object_or_404(builds, pk=b_id)
+        if a.machine_id != b.machine_id:
+            raise params.BadParameter(f"b: build #{b.pk} ran on {b.machine.name}, build #{a.pk} on "
+                                      f"{a.machine.name}; runs are compared on one machine")
+        comparison = compare_builds(a, b, a.machine.name, presentation.build_label(a), presentation.build_label(b))
+        context.update({"a": a, "b": b, "comparison": comparison, "summary": summary(comparison),
+                        "counts": comparison.counts(), "header": rows(comparison)[0],
+                        "rows": presentation.comparison_rows(comparison)})
+    elif a_id is not None or b_id is not None:
+        raise params.BadParameter("a and b: name both builds to compare")
+    return render(request, "webfrontend/compare_builds.html", context)
 
 
 def junit(request):

@@ -148,7 +148,9 @@ class HostileInputTest(TestCase):
                    f"/history/{t}/contact_models/hertz/impact/plot.png?machine={{v}}", "/junit.xml?machine={v}",
                    "/junit.xml?target={v}", "/accounts/login/?next={v}", "/testcases/contact_models/hertz/impact/?page={v}",
                    f"/history/{t}/contact_models/hertz/impact/?page={{v}}",
-                   "/admin/harness/override/{v}/change/", "/admin/harness/override/?run__id__exact={v}"]
+                   "/admin/harness/override/{v}/change/", "/admin/harness/override/?run__id__exact={v}",
+                   "/builds/compare/?a={v}&b={v}", f"/builds/compare/?a={s['new_build'].pk}&b={{v}}",
+                   "/builds/compare/?a={v}"]
         return ids + paths + queries
 
     def test_no_hostile_value_gives_a_500_or_shows_the_environment(self):
@@ -179,7 +181,8 @@ class HostileInputTest(TestCase):
                 ("/?machine=1&machine=2", "machine: given 2 times; give it once"),
                 ("/?mode=fancy", "mode: 'fancy' is not one of state, consistency"),
                 (f"/runs/{self.s['reference'].pk}/plot/{series}.png?q=a%00b", "q: 'a\\x00b' holds control characters"),
-                ("/compare/plot.png?run=1", "run, kind and name: all three are needed")]:
+                ("/compare/plot.png?run=1", "run, kind and name: all three are needed"),
+                (f"/builds/compare/?a={self.s['new_build'].pk}", "a and b: name both builds to compare")]:
             response = self.client.get(url)
             assert response.status_code == 400, url
             text = htmllib.unescape(response.content.decode())

@@ -1,0 +1,80 @@
+"""The build comparison page: what `harness compare A B` prints, from a form of the store's builds."""
+from __future__ import annotations
+
+import html as htmllib
+import re
+import tempfile
+from pathlib import Path
+
+from django.test import TestCase
+
+from dashboard_data import T0, kinetic_energy, make_store, thesis_consistency
+from harness.compare import compare_builds, rows, summary
+from harness.models import Build
+
+
+def cells(html: str) -> list[list[str]]:
+    """Text of the comparison table's body cells, row by row."""
+    body = html.split('<table class="build-comparison">', 1)[1].split("</table>", 1)[0].split("<tbody>", 1)[1]
+    return [[htmllib.unescape(re.sub(r"<[^>]+>", "", c)).strip() for c in re.findall(r"<td[^>]*>(.*?)</td>", r, re.S)]
+            for r in re.findall(r"<tr[^>]*>(.*?)</tr>", body, re.S)]
+
+
+class CompareBuildsTest(TestCase):
+    @classmethod
+    def setUpTestData(cls):
+        from harness.models import Run
+
+        cls.s = make_store(Path(tempfile.mkdtemp(prefix="compare-builds-")))
+        # finished runs: an outdated run of an older build is, for that build, what it ended as
+        Run.objects.exclude(state="not_executed").update(finished=T0)
+        cls.old = Build.objects.get(commit="b" * 40)
+        cls.new = cls.s["new_build"]
+
+    def page(self, a, b):
+        response = self.client.get(f"/builds/compare/?a={a.pk}&b={b.pk}")
+        self.assertEqual(response.status_code, 200)
+        return response.content.decode()
+
+    def test_the_form_offers_every_complete_build(self):
+        html = self.client.get("/builds/compare/").content.decode()
+        for build in Build.objects.all():
+            self.assertIn(f'<option value="{build.pk}"', html)
+        self.assertIn('<optgroup label="dem-master on ws1">', html)
+        self.assertNotIn('<table class="build-comparison">', html)
+
+    def test_rows_are_what_harness_compare_prints(self):
+        html = self.page(self.old, self.new)
+        expected = compare_builds(self.old, self.new, "ws1", "dem-master@HEAD~1 (bbbbbbb)", "dem-master@ccccccc")
+        table = cells(html)
+        self.assertEqual([row[:8] for row in table], [[str(c).strip() for c in r] for r in rows(expected)[1:]])
+        self.assertIn(htmllib.escape(summary(expected)), html)
+        # the drifted impact: B against A by the thesis' equations, computed independently
+        c, _eps, first_bad, level = thesis_consistency(kinetic_energy(8e-5), kinetic_energy())
+        hertz = next(r for r in table if r[0] == "contact_models/hertz/impact")
+        self.assertEqual((hertz[2], hertz[3], hertz[6]), ("inconsistent", f"{c:.4g}", f"{first_bad:g}"))
+        self.assertIn("failed", html.split('class="verdict', 1)[1][:60])
+        # stepping time is not stored in this store: no ratio, no geometric mean
+        self.assertIn('<strong id="time-ratio">-</strong>', html)
+
+    def test_each_pair_links_to_its_two_runs_and_plots(self):
+        html = self.page(self.old, self.new)
+        link = f'/compare/?run={self.s["older"].pk}&amp;run={self.s["inconsistent"].pk}'
+        self.assertIn(f'<a class="plots-link" href="{link}">plots</a>', html)
+        compared = self.client.get(htmllib.unescape(link))
+        self.assertEqual(compared.status_code, 200)
+
+    def test_stepping_time_ratio_and_its_geometric_mean(self):
+        from harness.models import Run
+
+        Run.objects.filter(pk=self.s["older"].pk).update(stepping_time=2.0)
+        Run.objects.filter(pk=self.s["inconsistent"].pk).update(stepping_time=1.0)
+        html = self.page(self.old, self.new)
+        hertz = next(r for r in cells(html) if r[0] == "contact_models/hertz/impact")
+        self.assertEqual(hertz[7], "0.500")
+        self.assertIn('<strong id="time-ratio">0.500</strong>', html)
+
+    def test_bad_choices_are_400_or_404(self):
+        self.assertEqual(self.client.get(f"/builds/compare/?a={self.old.pk}").status_code, 400)
+        self.assertEqual(self.client.get("/builds/compare/?a=1&b=x").status_code, 400)
+        self.assertEqual(self.client.get(f"/builds/compare/?a={self.old.pk}&b=999999").status_code, 404)
