@@ -13,6 +13,7 @@ next free ones) for every run, which parallel runs do not need. When the executa
 YADE prints no thermo table, so a script reports through the helper ``yade_series`` (importable in any script
 the harness runs, ``harness/adapters/yade_support/yade_series.py``): ``thermo.csv`` (step, time, atoms, ke,
 rke, J, velocity-Verlet full-step velocities) and ``timing.json`` (s), the files the bundled engine writes.
+A script that does not use the helper (YADE's examples) gets one row of its final state from the launcher.
 Errors: the launcher's ``ERROR: ...`` line for an exception of the script, YADE's ``<ERROR>``/``<FATAL>`` log
 lines; warnings: ``<WARNING>`` lines. Dumps: ``VTKRecorder`` files (``PREFIXspheres.ITER.vtu``) are
 converted to ``vtk/spheres_ITER.vtp`` with the array names the harness reads (v, omega, radius, mass).

@@ -13,7 +13,10 @@ when the launcher is ``__main__``. The script then runs in ``__main__`` with the
 
 The log (``--log``) gets a header (YADE version, script, arguments, threads), everything the script prints
 from Python, and ``ERROR: ...`` when the script raises (the traceback goes to stderr); the exit code is 1
-then, the script's own ``sys.exit`` code otherwise. ``--refuse MESSAGE`` writes ``ERROR: MESSAGE`` and exits
+then, the script's own ``sys.exit`` code otherwise. A script that ends without error and wrote no
+``thermo.csv`` (one that does not use the yade_series helper, e.g. YADE's examples) gets one thermo row of
+its final state (``yade_series.write_final_state``). A simulation the script left running in the background
+is paused first, as ``yade -x`` ends it. ``--refuse MESSAGE`` writes ``ERROR: MESSAGE`` and exits
 1 without starting YADE (a run configuration the adapter cannot run, e.g. an mpi run).
 
 This file and yade_series.py sit alone in their folder, which Python puts first on ``sys.path`` when it runs
@@ -112,6 +115,12 @@ def main(argv):
         # script ends; pausing it first lets the process exit cleanly instead of on a signal
         launcher.O.pause()
         print(f"simulation left running by the script paused at iteration {launcher.O.iter}")
+    if code == 0 and not os.path.exists("thermo.csv"):
+        # a script without the yade_series helper (YADE's own examples): its final state, one row
+        import yade_series
+
+        yade_series.write_final_state("thermo.csv")
+        print("no thermo.csv from the script: wrote its final state (one row, source final_state)")
     print(f"exit code {code}")
     sys.stdout.flush()
     sys.stderr.flush()
