@@ -1,68 +1,59 @@
-"""Server-side plots of the dashboard (matplotlib, Agg backend, object API: safe in threaded servers).
+"""Plots of the dashboard as data: JSON the browser draws (webfrontend/static/webfrontend/plots.js, uPlot).
+
+The server says what is drawn - abscissa, curves, bands, markers, axis labels with units, axis limits - and
+the browser draws it with zoom, values on hover and series switched on and off in the legend. No image is
+drawn per request, so no plotting state is shared between the threads of a server (pyplot's global state
+gave HTTP 500 under parallel image requests).
 
 Plot kinds (thesis 4.4.1, 4.4.2, 4.6): a quantity of a data series over its abscissa for one or many runs,
-a declared plot with its own title, labels and legend, a version consistency plot with the 5 % and 10 %
-acceptance bands around the reference trajectory, and the history of a test case over revisions.
+the difference of compared runs to the first one, a declared plot with its own title, labels and legend, a
+version consistency plot with the 5 % and 10 % acceptance bands around the reference trajectory (and the
+deviation from it against the bands' half widths), the history of a test case over commits, and a sweep's
+error against run time and against the swept value (log-log).
+
+A plot is a dict::
+
+    {"title", "xlabel", "ylabel", "x": [...], "series": [{"label", "values", "color", "dash", "points",
+     "hover" (true values where ``values`` are clipped), "show"}], "bands": [{"upper": i, "lower": i,
+     "fill"}], "markers": [{"x", "label", "color"}], "xlog", "ylog", "ylimits": [lo, hi] or None,
+     "xticks": [labels] or None (categorical abscissa: x are indices)}
+
+Non-finite numbers become None (JSON has no NaN): a gap in the curve.
 """
 from __future__ import annotations
 
-import io
 import math
-
-import matplotlib
-
-matplotlib.use("Agg")
-from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
 
 #: units of the thermo quantities every test case writes (thesis 4.4.1) and common abscissae;
 #: a series' own ``meta["units"]`` wins
 DEFAULT_UNITS = {
     "step": "1", "atoms": "1", "natoms": "1", "ke": "J", "kineng": "J", "rke": "J", "c_rke": "J",
     "time": "s", "t": "s", "dt": "s", "cpu": "s", "pe": "J", "etotal": "J", "press": "Pa",
-    # aggregates of VTK particle dumps (harness/postprocess.py)
+    # aggregates of VTK particle dumps (harness/postprocess.py vtk_aggregates)
     "particles": "1", "ke_per_mass": "J/kg", "vx_mean": "m/s", "vy_mean": "m/s", "vz_mean": "m/s",
     "x_min": "m", "x_max": "m", "y_min": "m", "y_max": "m", "z_min": "m", "z_max": "m",
 }
-#: the consistency levels (thesis 4.4.1): Delta_k below 5 % is perfect, below 10 % good
-LEVELS = (("10 % band (good)", 0.10, "#f6d8a8"), ("5 % band (perfect)", 0.05, "#b9e3b0"))
-FIGSIZE = (6.4, 4.2)
-DPI = 100
+#: the consistency levels (thesis 4.4.1): Delta_k below 5 % is perfect, below 10 % good; widest first, so
+#: the narrow band is drawn over the wide one
+LEVELS = (("10 % band (good)", 0.10, "rgba(246, 180, 90, 0.35)"), ("5 % band (perfect)", 0.05,
+                                                                  "rgba(90, 180, 90, 0.35)"))
+#: curve colours, told apart also by people with the common colour-vision deficiencies (Okabe-Ito)
+PALETTE = ("#0072b2", "#d55e00", "#009e73", "#cc79a7", "#e69f00", "#56b4e9", "#000000", "#f0e442")
+REFERENCE_COLOR = "#222222"
+MARKER_COLOR = "#c0392b"
+#: lowest C a history axis shows: C = 1 - max Delta_k has no lower bound (a run far off scores -8186), and
+#: one such value would flatten every other point against 1; lower values are drawn at the bound and their
+#: true value shown on hover
+C_AXIS_FLOOR = -0.5
 
 
-def new_figure(size=FIGSIZE) -> Figure:
-    # constrained layout keeps the legend below the axes, where it hides no data
-    return Figure(figsize=size, dpi=DPI, layout="constrained")
-
-
-def legend_below(fig: Figure, ax) -> None:
-    handles, labels = ax.get_legend_handles_labels()
-    if handles:
-        fig.legend(handles, labels, loc="outside lower center", ncols=2 if len(labels) > 1 else 1,
-                   fontsize="small", frameon=False)
-
-
-def png(fig: Figure) -> bytes:
-    """The figure as PNG bytes."""
-    buffer = io.BytesIO()
-    FigureCanvasAgg(fig).print_png(buffer)
-    return buffer.getvalue()
-
-
-def unit_of(series, column: str) -> str | None:
-    units = (series.meta or {}).get("units") or {}
-    return units.get(column) or DEFAULT_UNITS.get(column.lower())
-
-
-def label_of(series, column: str) -> str:
-    """Axis label "name [unit]" (unit 1 = dimensionless)."""
-    unit = unit_of(series, column)
-    return f"{column} [{unit}]" if unit else column
-
-
-def _declared_label(text: str) -> str:
-    # run.config labels use underscores for spaces, as in the thesis' "time_[s]" (listing 4.11)
-    return text.replace("_", " ")
+def finite_or_none(value):
+    """A number JSON can carry: floats that are NaN or infinite become None (a gap)."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return None
+    return number if math.isfinite(number) else None
 
 
 def numeric(values) -> list[float]:
@@ -74,6 +65,38 @@ def numeric(values) -> list[float]:
         except (TypeError, ValueError):
             out.append(math.nan)
     return out
+
+
+def _json(values) -> list:
+    return [finite_or_none(v) for v in values]
+
+
+def _vtk_ke_per_mass(series) -> bool:
+    """Whether a VTK dump series' ``ke`` is per unit mass: harness.postprocess.vtk_aggregates gives ``ke``
+    in J only when the dumps carry masses (or radii and a density), otherwise the same numbers as its
+    ``ke_per_mass`` column, in J/kg."""
+    cols = series.columns if isinstance(series.columns, dict) else {}
+    return series.kind == "vtk" and cols.get("ke") is not None and cols.get("ke") == cols.get("ke_per_mass")
+
+
+def unit_of(series, column: str) -> str | None:
+    units = (series.meta or {}).get("units") or {}
+    if column in units:
+        return units[column]
+    if column == "ke" and _vtk_ke_per_mass(series):
+        return "J/kg"
+    return DEFAULT_UNITS.get(column.lower())
+
+
+def label_of(series, column: str) -> str:
+    """Axis label "name [unit]" (unit 1 = dimensionless)."""
+    unit = unit_of(series, column)
+    return f"{column} [{unit}]" if unit else column
+
+
+def _declared_label(text: str) -> str:
+    # run.config labels use underscores for spaces, as in the thesis' "time_[s]" (listing 4.11)
+    return text.replace("_", " ")
 
 
 def quantities(series) -> list[str]:
@@ -92,45 +115,144 @@ def abscissa(series) -> tuple[list[float], str]:
             return numeric(cols[series.x_column]), _declared_label(series.meta["xlabel"])
         return numeric(cols[series.x_column]), label_of(series, series.x_column)
     length = max((len(v) for v in cols.values() if isinstance(v, list)), default=0)
-    return list(range(length)), "sample [1]"
+    return [float(i) for i in range(length)], "sample [1]"
 
 
-def series_figure(curves: list[tuple[str, object]], quantity: str | None) -> Figure:
-    """One quantity (or, for a declared plot and ``quantity=None``, all its columns) for one or more runs.
+def _points(series, column: str) -> list[tuple[float, float]]:
+    """(x, y) of one column, in order of x, points without a finite x left out."""
+    x, _ = abscissa(series)
+    y = numeric((series.columns or {}).get(column))
+    pairs = [(a, b) for a, b in zip(x, y) if math.isfinite(a)]
+    return sorted(pairs, key=lambda p: p[0])
 
-    ``curves`` is ``[(run label, Series)]``; with several runs each gets its own line (thesis 4.6.2:
-    plots of all compared runs overlaid).
-    """
-    fig = new_figure()
-    ax = fig.add_subplot()
-    first = curves[0][1]
+
+def _aligned(curves: list[list[tuple[float, float]]]) -> tuple[list[float], list[list]]:
+    """One abscissa for several curves (the union of their x values) and each curve's values on it (None
+    where a curve has no point): uPlot draws all series of a plot over one x array."""
+    if len(curves) == 1:
+        return [p[0] for p in curves[0]], [[p[1] for p in curves[0]]]
+    xs = sorted({p[0] for curve in curves for p in curve})
+    out = []
+    for curve in curves:
+        by_x = dict(curve)
+        out.append([by_x.get(x) for x in xs])
+    return xs, out
+
+
+def plot(title: str, xlabel: str, ylabel: str, x, series: list[dict], **extra) -> dict:
+    """A plot dict (see the module docstring) with JSON-safe numbers."""
+    for s in series:
+        s["values"] = _json(s["values"])
+        if "hover" in s:
+            s["hover"] = _json(s["hover"])
+    return {"title": title, "xlabel": xlabel, "ylabel": ylabel, "x": _json(x), "series": series,
+            "bands": extra.get("bands", []), "markers": extra.get("markers", []), "xlog": extra.get("xlog", False),
+            "ylog": extra.get("ylog", False), "ylimits": extra.get("ylimits"), "xticks": extra.get("xticks")}
+
+
+def _column_names(first, quantity: str | None) -> tuple[list[str], dict]:
+    """Columns drawn for a quantity (a declared plot without one: all its columns) and their legend names."""
+    meta = first.meta or {}
+    all_columns = quantities(first)
+    columns = [quantity] if quantity else all_columns
+    legend = meta.get("legend") or []
+    names = {}
+    for column in columns:
+        names[column] = column
+        if first.kind == "plot" and column in all_columns and all_columns.index(column) < len(legend):
+            names[column] = _declared_label(legend[all_columns.index(column)])
+    return columns, names
+
+
+def _titles(first, quantity, columns) -> tuple[str, str]:
     meta = first.meta or {}
     declared = first.kind == "plot"
-    columns = [quantity] if quantity else quantities(first)
-    legend_names = meta.get("legend") or []
-    all_columns = quantities(first)
-    for label, series in curves:
-        x, xlabel = abscissa(series)
-        for column in columns:
-            values = numeric((series.columns or {}).get(column))
-            if not values:
-                continue
-            name = column
-            if declared and column in all_columns and all_columns.index(column) < len(legend_names):
-                name = _declared_label(legend_names[all_columns.index(column)])
-            parts = [p for p in (label if len(curves) > 1 else "", name if len(columns) > 1 or declared
-                                 else "") if p]
-            ax.plot(x[:len(values)], values[:len(x)], label=", ".join(parts) or column, linewidth=1.4)
-    ax.set_xlabel(xlabel)
+    title = (meta.get("title") if declared else None) or f"{first.name}: {quantity or ', '.join(columns)}"
     if declared and meta.get("ylabel"):
-        ax.set_ylabel(_declared_label(meta["ylabel"]))
+        ylabel = _declared_label(meta["ylabel"])
     else:
-        ax.set_ylabel(label_of(first, columns[0]) if len(columns) == 1 else "value")
-    title = meta.get("title") if declared else None
-    ax.set_title(title or f"{first.name}: {quantity or ', '.join(columns)}")
-    ax.grid(True, alpha=0.3)
-    legend_below(fig, ax)
-    return fig
+        ylabel = label_of(first, columns[0]) if len(columns) == 1 else "value"
+    return title, ylabel
+
+
+def series_plot(curves: list[tuple[str, object]], quantity: str | None, overlays: list[dict] | None = None
+                ) -> dict:
+    """One quantity (or, for a declared plot and ``quantity=None``, all its columns) for one or more runs.
+
+    ``curves`` is ``[(run label, Series)]``; with several runs each gets its own line (thesis 4.6.2: plots
+    of all compared runs overlaid; the second run dashed so that identical curves stay visible).
+    ``overlays`` are expectation lines and bands (``expectation_overlays``) drawn over the data.
+    """
+    first = curves[0][1]
+    columns, names = _column_names(first, quantity)
+    _, xlabel = abscissa(first)
+    labels, data = [], []
+    for label, series in curves:
+        for column in columns:
+            parts = [p for p in (label if len(curves) > 1 else "",
+                                 names[column] if len(columns) > 1 or first.kind == "plot" else "") if p]
+            labels.append(", ".join(parts) or column)
+            data.append(_points(series, column))
+    x, values = _aligned(data)
+    series = [{"label": label, "values": v, "color": PALETTE[i % len(PALETTE)], "dash": i % 2 == 1}
+              for i, (label, v) in enumerate(zip(labels, values))]
+    bands = []
+    for overlay in overlays or []:
+        base = len(series)
+        for j, line in enumerate(overlay["lines"]):
+            series.append({"label": line["label"], "values": [line["y"]] * len(x), "color": overlay["color"],
+                           "dash": True, "width": 1})
+        if overlay.get("band") and len(overlay["lines"]) == 2:
+            bands.append({"upper": base + 1, "lower": base, "fill": overlay["fill"]})
+    title, ylabel = _titles(first, quantity, columns)
+    return plot(title, xlabel, ylabel, x, series, bands=bands)
+
+
+def difference_plot(curves: list[tuple[str, object]], quantity: str) -> dict | None:
+    """Each further run minus the first on the abscissa values both have: where identical curves hide each
+    other in an overlay, their difference is a flat zero (None: fewer than two runs with the quantity)."""
+    first_label, first = curves[0]
+    base = dict(_points(first, quantity))
+    others = [(label, _points(s, quantity)) for label, s in curves[1:]]
+    others = [(label, [(x, y - base[x]) for x, y in pts if x in base]) for label, pts in others]
+    others = [(label, pts) for label, pts in others if pts]
+    if not base or not others:
+        return None
+    x, values = _aligned([pts for _, pts in others])
+    series = [{"label": f"{label} - {first_label}", "values": v, "color": PALETTE[(i + 1) % len(PALETTE)]}
+              for i, ((label, _), v) in enumerate(zip(others, values))]
+    _, xlabel = abscissa(first)
+    unit = unit_of(first, quantity)
+    return plot(f"{first.name}: {quantity}, difference to {first_label}", xlabel,
+                f"difference of {quantity}" + (f" [{unit}]" if unit else ""), x, series)
+
+
+def expectation_overlays(config: dict, series_name: str, column: str) -> list[dict]:
+    """Lines of the run configuration's expectations on ``SERIES.COLUMN`` (harness/acceptance.py): the
+    expected value with its tolerance band, or the lower/upper bounds. The bounds apply to the reduced
+    value (``at``: end, start, min, max, mean), which the legend names."""
+    out = []
+    for spec in (config or {}).get("expectations") or []:
+        if not isinstance(spec, dict) or spec.get("quantity") != f"{series_name}.{column}":
+            continue
+        at = spec.get("at", "end")
+        try:
+            if "value" in spec:
+                value = float(spec["value"])
+                half = max(float(spec.get("rel_tol", 0.0)) * abs(value), float(spec.get("abs_tol", 0.0)))
+                lines = [{"label": f"expected {at} - tolerance", "y": value - half},
+                         {"label": f"expected {at} + tolerance", "y": value + half}] if half else \
+                        [{"label": f"expected {at} = {value:.6g}", "y": value}]
+                out.append({"lines": lines, "band": bool(half), "color": "#7b3294",
+                            "fill": "rgba(123, 50, 148, 0.15)"})
+            else:
+                lines = [{"label": f"{bound} bound ({at})", "y": float(spec[bound])}
+                         for bound in ("lower", "upper") if bound in spec]
+                out.append({"lines": lines, "band": len(lines) == 2, "color": "#7b3294",
+                            "fill": "rgba(123, 50, 148, 0.10)"})
+        except (TypeError, ValueError):
+            continue  # a malformed expectation fails the run's validation; nothing to draw here
+    return out
 
 
 def epsilon_of(reference_values: list[float], stored: float | None) -> float:
@@ -146,74 +268,118 @@ def band_half_width(level: float, eps: float) -> float:
     return level * eps / 0.1
 
 
-def consistency_figure(result, run_series, reference_series, run_label: str, reference_label: str) -> Figure:
-    """Thesis figure 4.11: a run's trajectory over its reference with the 5 % and 10 % acceptance bands.
+def consistency_plots(result, run_series, reference_series, run_label: str, reference_label: str) -> list[dict]:
+    """Thesis figure 4.11: a run's trajectory over its reference with the 5 % and 10 % acceptance bands, and
+    the deviation x - x_ref against the bands' half widths (what the overlay cannot show when the curves
+    lie on each other).
 
-    ``result`` is the ConsistencyResult (C, level, eps, first step out of band); the series hold the data.
+    ``result`` is a ConsistencyResult (or harness.consistency.QuantityResult): quantity, C, level, eps,
+    first step out of band; the series hold the data.
     """
-    fig = new_figure()
-    ax = fig.add_subplot()
     quantity = result.quantity
-    x_ref, xlabel = abscissa(reference_series)
-    y_ref = numeric((reference_series.columns or {}).get(quantity))
-    n = min(len(x_ref), len(y_ref))
-    x_ref, y_ref = x_ref[:n], y_ref[:n]
-    eps = epsilon_of(y_ref, result.epsilon)
-    for name, level, color in LEVELS:
+    ref = _points(reference_series, quantity)
+    run = _points(run_series, quantity) if run_series is not None else []
+    eps = epsilon_of([y for _, y in ref], result.epsilon)
+    x, (y_ref, y_run) = _aligned([ref, run]) if run else ([p[0] for p in ref], [[p[1] for p in ref], []])
+    series, bands = [], []
+    for name, level, fill in LEVELS:
         half = band_half_width(level, eps)
-        ax.fill_between(x_ref, [y - half for y in y_ref], [y + half for y in y_ref], color=color,
-                        label=name, linewidth=0)
-    ax.plot(x_ref, y_ref, color="#222222", linewidth=1.4, label=f"reference: {reference_label}")
-    if run_series is not None:
-        x_run, _ = abscissa(run_series)
-        y_run = numeric((run_series.columns or {}).get(quantity))
-        m = min(len(x_run), len(y_run))
-        ax.plot(x_run[:m], y_run[:m], color="#1f5fbf", linewidth=1.4, linestyle="--", label=run_label)
-    if result.first_bad_step is not None:
-        ax.axvline(result.first_bad_step, color="#c0392b", linewidth=1.0,
-                   label=f"first out of band: {result.first_bad_step:g}")
+        lower = [None if y is None else y - half for y in y_ref]
+        upper = [None if y is None else y + half for y in y_ref]
+        series += [{"label": f"{name} lower", "values": lower, "color": "rgba(0,0,0,0)", "band_edge": True},
+                   {"label": f"{name} upper", "values": upper, "color": "rgba(0,0,0,0)", "band_edge": True}]
+        bands.append({"upper": len(series) - 1, "lower": len(series) - 2, "fill": fill, "label": name})
+    series.append({"label": f"reference: {reference_label}", "values": y_ref, "color": REFERENCE_COLOR})
+    if run:
+        series.append({"label": run_label, "values": y_run, "color": PALETTE[0], "dash": True})
+    markers = [{"x": result.first_bad_step, "label": f"first out of band: {result.first_bad_step:g}",
+                "color": MARKER_COLOR}] if result.first_bad_step is not None else []
     c_text = "n/a" if result.value is None else f"{result.value:.4f}"
-    ax.set_title(f"{result.series_name}: {quantity}  (C = {c_text}, {result.level})")
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(label_of(reference_series, quantity))
-    ax.grid(True, alpha=0.3)
-    legend_below(fig, ax)
-    return fig
+    _, xlabel = abscissa(reference_series)
+    title = f"{result.series_name}: {quantity}  (C = {c_text}, {result.level})"
+    out = [plot(title, xlabel, label_of(reference_series, quantity), x, series, bands=bands, markers=markers)]
+    if run:
+        common = [(a, r, b) for a, r, b in zip(x, y_ref, y_run) if r is not None and b is not None]
+        dx = [a for a, _, _ in common]
+        deviation = [b - r for _, r, b in common]
+        dev_series, dev_bands = [], []
+        for name, level, fill in LEVELS:
+            half = band_half_width(level, eps)
+            dev_series += [{"label": f"{name} lower", "values": [-half] * len(dx), "color": "rgba(0,0,0,0)",
+                            "band_edge": True},
+                           {"label": f"{name} upper", "values": [half] * len(dx), "color": "rgba(0,0,0,0)",
+                            "band_edge": True}]
+            dev_bands.append({"upper": len(dev_series) - 1, "lower": len(dev_series) - 2, "fill": fill,
+                              "label": name})
+        dev_series.append({"label": f"{run_label} - reference", "values": deviation, "color": PALETTE[0]})
+        unit = unit_of(reference_series, quantity)
+        out.append(plot(f"{result.series_name}: {quantity}, deviation from the reference (eps = {eps:.4g})",
+                        xlabel, f"x - x_ref" + (f" [{unit}]" if unit else ""), dx, dev_series, bands=dev_bands,
+                        markers=markers))
+    return out
 
 
-def history_figure(runs, testcase_path: str, target_name: str) -> Figure:
-    """Consistency C and wall time of a test case's runs over the successive builds of a target.
+def clipped_c(values: list[float | None]) -> tuple[list[float | None], list[float | None], list[float] | None]:
+    """(values drawn, true values for hover, axis limits) of consistency scores: values below
+    ``C_AXIS_FLOOR`` are drawn at the floor (limits then fixed to [floor, 1.02])."""
+    finite = [v for v in values if v is not None and math.isfinite(v)]
+    if not finite or min(finite) >= C_AXIS_FLOOR:
+        return values, values, None
+    drawn = [None if v is None else max(v, C_AXIS_FLOOR) for v in values]
+    return drawn, values, [C_AXIS_FLOOR - 0.05, 1.02]
 
-    ``runs`` are ordered oldest build first; one line per run configuration name.
+
+def history_plots(labels: list[str], lines: dict[str, dict], changes: list[dict], title: str) -> list[dict]:
+    """C, stepping time and wall time of a test case's run configurations over the commits of a target.
+
+    ``labels`` are the commits oldest first (the abscissa is their index); ``lines`` maps a run
+    configuration name to ``{"c": [...], "stepping": [...], "wall": [...]}`` (None where it has no run);
+    ``changes`` are ``{"index", "label"}`` of the commits harness.regressions marked.
     """
-    fig = new_figure((6.4, 5.6))
-    ax_c, ax_t = fig.subplots(2, 1, sharex=True)
-    from webfrontend.presentation import revision_label
+    markers = [{"x": c["index"], "label": c["label"], "color": MARKER_COLOR} for c in changes]
+    x = list(range(len(labels)))
+    c_series, t_series = [], []
+    limits = None
+    for i, (name, line) in enumerate(sorted(lines.items())):
+        drawn, true, clip = clipped_c(line["c"])
+        limits = clip or limits
+        c_series.append({"label": f"{name} lowest C", "values": drawn, "hover": true,
+                         "color": PALETTE[i % len(PALETTE)], "points": True})
+        t_series.append({"label": f"{name} stepping time", "values": line["stepping"],
+                         "color": PALETTE[i % len(PALETTE)], "points": True})
+        t_series.append({"label": f"{name} wall time", "values": line["wall"], "color": PALETTE[i % len(PALETTE)],
+                         "dash": True, "points": True})
+    c_series += [{"label": "C = 0.95 (perfect)", "values": [0.95] * len(x), "color": "#2e8b57", "dash": True,
+                  "width": 1},
+                 {"label": "C = 0.90 (good)", "values": [0.90] * len(x), "color": "#d68910", "dash": True,
+                  "width": 1}]
+    return [plot(f"{title}: lowest consistency C per commit", "commit (oldest first)", "lowest C [1]", x,
+                 c_series, markers=markers, xticks=labels, ylimits=limits),
+            plot(f"{title}: time per commit", "commit (oldest first)", "time [s]", x, t_series,
+                 markers=markers, xticks=labels)]
 
-    revisions: list[str] = []
-    for run in runs:
-        if revision_label(run.build) not in revisions:
-            revisions.append(revision_label(run.build))
-    lines: dict[str, dict[str, list]] = {}
-    for run in runs:
-        line = lines.setdefault(run.name, {"x": [], "c": [], "t": []})
-        line["x"].append(revisions.index(revision_label(run.build)))
-        line["c"].append(math.nan if run.consistency_min is None else run.consistency_min)
-        line["t"].append(math.nan if run.wall_time is None else run.wall_time)
-    for name, line in sorted(lines.items()):
-        ax_c.plot(line["x"], line["c"], marker="o", label=name)
-        ax_t.plot(line["x"], line["t"], marker="o", label=name)
-    ax_c.axhline(0.95, color="#2e8b57", linestyle=":", linewidth=1, label="C = 0.95 (perfect)")
-    ax_c.axhline(0.90, color="#d68910", linestyle=":", linewidth=1, label="C = 0.90 (good)")
-    ax_c.set_ylabel("lowest C [1]")
-    fig.suptitle(f"{testcase_path} on {target_name}", fontsize="medium")
-    ax_c.set_title("lowest consistency C per revision", fontsize="small")
-    ax_t.set_title("engine wall time per revision", fontsize="small")
-    ax_t.set_ylabel("wall time [s]")
-    ax_t.set_xlabel("revision (oldest build first)")
-    ax_t.set_xticks(range(len(revisions)))
-    ax_t.set_xticklabels(revisions, rotation=20, ha="right", fontsize="small")
-    for ax in (ax_c, ax_t):
-        ax.grid(True, alpha=0.3)
-    legend_below(fig, ax_c)
-    return fig
+
+def sweep_plots(table, spec: dict, title: str) -> list[dict]:
+    """A sweep (harness.sweep.SweepResult.table, its spec) as two log-log plots: error against run time (what
+    accuracy costs) and error against the swept value with an order-2 reference slope."""
+    from harness.sweep import observed_order
+
+    variable, quantity = spec["variable"], spec["error"]["quantity"]
+    rows = [r for r in table.itertuples() if finite_or_none(r.error) and r.error > 0]
+    by_time = sorted((r for r in rows if finite_or_none(r.run_time) and r.run_time > 0), key=lambda r: r.run_time)
+    cost = plot(f"{title}: what accuracy costs in time", "run time [s] (engine time stepping)",
+                f"error of {quantity}", [r.run_time for r in by_time],
+                [{"label": f"error ({variable} = " + ", ".join(f"{r.value:g}" for r in by_time) + ")",
+                  "values": [r.error for r in by_time], "color": PALETTE[0], "points": True}],
+                xlog=True, ylog=True)
+    by_value = sorted(rows, key=lambda r: r.value)
+    order = observed_order([r.value for r in by_value], [r.error for r in by_value])
+    series = [{"label": f"observed order {order:.2f}" if order is not None else "error",
+               "values": [r.error for r in by_value], "color": PALETTE[1], "points": True}]
+    if order is not None and by_value:
+        x0, e0 = by_value[0].value, by_value[0].error
+        series.append({"label": "order 2 (reference slope)", "values": [e0 * (r.value / x0) ** 2 for r in by_value],
+                       "color": "#888888", "dash": True})
+    conv = plot(f"{title}: convergence", variable, f"error of {quantity}", [r.value for r in by_value], series,
+                xlog=True, ylog=True)
+    return [cost, conv]

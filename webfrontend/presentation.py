@@ -130,38 +130,135 @@ def text_diffs(run_a, texts_a: dict, run_b, texts_b: dict) -> list[dict]:
     return out
 
 
-def run_plots(run) -> list[dict]:
-    """Plot images of a run page: every thermo/VTK quantity and every declared plot (thesis fig. 4.4)."""
+def run_plots(run, series) -> list[dict]:
+    """Plots of a run page: every thermo/VTK quantity and every declared plot (thesis fig. 4.4), declared
+    plots first, with the run configuration's expectations on the quantities they bound."""
     out = []
-    for series in sorted(run.series.all(), key=lambda s: (s.kind != "plot", s.kind, s.name)):
-        url = reverse("run-plot", args=[run.pk, series.pk])
-        if series.kind == "plot":
-            if plots.quantities(series):
-                out.append({"title": series.meta.get("title") or series.name, "url": url,
-                            "kind": series.kind})
+    for s in sorted(series, key=lambda s: (s.kind != "plot", s.kind, s.name)):
+        if s.kind == "plot":
+            if plots.quantities(s):
+                out.append(plots.series_plot([(f"#{run.pk}", s)], None))
             continue
-        for quantity in plots.quantities(series):
-            out.append({"title": f"{series.name}: {quantity}", "kind": series.kind,
-                        "url": f"{url}?{urlencode({'q': quantity})}"})
+        for quantity in plots.quantities(s):
+            out.append(plots.series_plot([(f"#{run.pk}", s)], quantity,
+                                         plots.expectation_overlays(run.config, s.name, quantity)))
     return out
 
 
-def compare_plots(runs, shared: dict) -> list[dict]:
-    """Overlaid plots of compared runs, one per quantity of every series some compared run has."""
-    ids = [r.pk for r in runs]
+def _series_by_run(series) -> dict:
+    """``{(kind, name): {run_id: Series}}``."""
+    out: dict = {}
+    for s in series:
+        out.setdefault((s.kind, s.name), {})[s.run_id] = s
+    return out
+
+
+def compare_plots(runs, series) -> list[dict]:
+    """Plots of compared runs, per quantity of every series some compared run has: all runs overlaid; for
+    two runs the consistency bands of the second around the first and its deviation from it
+    (harness.consistency.compare_runs, the score ``harness compare`` gives), for more each run's difference
+    to the first."""
+    from harness.consistency import compare_runs
+
+    by_key = _series_by_run(series)
     out = []
-    for (kind, name), by_run in sorted(shared.items(), key=lambda kv: (kv[0][0] != "plot", kv[0])):
-        first = next(iter(by_run.values()))
-        base = {"run": [i for i in ids if i in by_run], "kind": kind, "name": name}
-        present = f"{len(by_run)} of {len(ids)} runs"
+    for (kind, name), by_run in sorted(by_key.items(), key=lambda kv: (kv[0][0] != "plot", kv[0])):
+        if kind == "textfile":
+            continue
+        curves = [(short_label(r), by_run[r.pk]) for r in runs if r.pk in by_run]
+        first = curves[0][1]
         if kind == "plot":
-            out.append({"title": f"{first.meta.get('title') or name} ({present})",
-                        "url": reverse("compare-plot") + "?" + urlencode(base, doseq=True)})
-            continue
+            out.append(plots.series_plot(curves, None))
+        pair = len(runs) == 2 and len(curves) == 2
+        results = {}
+        if pair:
+            a, b = (by_run[r.pk] for r in runs)
+            as_dict = [{"kind": x.kind, "name": x.name, "x_column": x.x_column, "columns": x.columns}
+                       for x in (a, b)]
+            results = {r.quantity: r for r in compare_runs([as_dict[1]], [as_dict[0]],
+                                                           (runs[1].config or {}).get("consistency"))}
         for quantity in plots.quantities(first):
-            out.append({"title": f"{name}: {quantity} ({present})",
-                        "url": reverse("compare-plot") + "?" + urlencode({**base, "q": quantity}, doseq=True)})
+            if kind != "plot":
+                out.append(plots.series_plot(curves, quantity))
+            if pair and quantity in results and results[quantity].value is not None:
+                out += plots.consistency_plots(results[quantity], curves[1][1], curves[0][1], curves[1][0],
+                                               curves[0][0])
+            elif len(curves) > 1:
+                difference = plots.difference_plot(curves, quantity)
+                if difference:
+                    out.append(difference)
     return out
+
+
+def consistency_plots(results) -> list[dict]:
+    """The bands of every stored consistency result of a run (thesis fig. 4.11), in two queries."""
+    results = [r for r in results if r.series_kind != "textfile" and r.value is not None]
+    if not results:
+        return []
+    from harness.models import Series
+
+    run_ids = {r.run_id for r in results} | {r.reference_run_id for r in results}
+    stored = {(s.run_id, s.kind, s.name): s for s in Series.objects.filter(
+        run_id__in=run_ids, kind__in={r.series_kind for r in results}, name__in={r.series_name for r in results})}
+    out = []
+    for r in results:
+        reference = stored.get((r.reference_run_id, r.series_kind, r.series_name))
+        if reference is None:
+            continue
+        out += plots.consistency_plots(r, stored.get((r.run_id, r.series_kind, r.series_name)), reference,
+                                       short_label(r.run), short_label(r.reference_run))
+    return out
+
+
+def _history_of(target, case, machine):
+    from harness.regressions import histories
+
+    # -k is a substring unless it holds glob characters; the test case is then matched exactly below
+    pattern = None if any(c in case.path for c in "*?[") else case.path
+    return [h for h in histories(machine.name, target.name, pattern) if h.testcase == case.path]
+
+
+def history_plots(target, case, machine) -> list[dict]:
+    """C, stepping time and wall time of a test case over the commits of a target (harness.regressions:
+    its histories and the commits it marks)."""
+    found = _history_of(target, case, machine)
+    commits: dict[str, object] = {}
+    for h in found:
+        for commit, committed_at, *_ in h.points:
+            commits.setdefault(commit, committed_at)
+    order = sorted(commits, key=lambda c: commits[c])
+    index = {c: i for i, c in enumerate(order)}
+    lines: dict[str, dict] = {}
+    changes = []
+    for h in found:
+        name = h.run if h.run not in lines else f"{h.run} (other content)"
+        line = {"c": [None] * len(order), "stepping": [None] * len(order), "wall": [None] * len(order)}
+        for commit, _when, stepping, wall, c, _state in h.points:
+            i = index[commit]
+            line["c"][i], line["stepping"][i], line["wall"][i] = c, stepping, wall
+        lines[name] = line
+        changes += [{"index": index[c.commit], "label": f"{c.commit[:7]} {h.run}: {c.kind}, {c.detail}"}
+                    for c in h.changes]
+    return plots.history_plots([c[:7] for c in order], lines, changes, f"{case.path} on {target.name}")
+
+
+def regression_rows(found, machine) -> list[dict]:
+    """One row per marked commit of harness.regressions.histories, newest first, linking to the run and the
+    test case's history."""
+    from harness.models import Run
+
+    rows = []
+    for h in found:
+        for c in h.changes:
+            when = next((p[1] for p in h.points if p[0] == c.commit), None)
+            rows.append({"history": h, "change": c, "when": when})
+    targets = dict(Run.objects.filter(pk__in=[r["change"].run_id for r in rows]).values_list("pk", "target_id"))
+    for row in rows:
+        target_id = targets.get(row["change"].run_id)
+        row["history_url"] = (reverse("history", args=[target_id, row["history"].testcase]) + "?"
+                              + urlencode({"machine": machine.pk})) if target_id else None
+    rows.sort(key=lambda r: (r["when"] is None, r["when"]), reverse=True)
+    return rows
 
 
 def build_label(build) -> str:
@@ -194,3 +291,20 @@ def comparison_rows(comparison) -> list[dict]:
                     "failing": pair.outcome in ("new_failure", "inconsistent")})
     out.sort(key=lambda r: (rank[r["pair"].outcome], r["pair"].testcase, r["pair"].run))
     return out
+
+
+def expectation_rows(files) -> list[dict]:
+    """The expectation and stability results of a run (``verdicts`` in its run.json, harness/execute.py:
+    ``{"ok", "reason", "message"}`` each), failed ones first; [] when the record has none or is unreadable."""
+    import json
+
+    from webfrontend.runfiles import RECORD_NAME
+
+    record = files.read(RECORD_NAME)
+    try:
+        verdicts = json.loads(record.text).get("verdicts") if record and not record.truncated else None
+    except (ValueError, AttributeError):
+        return []
+    rows = [{"ok": bool(v.get("ok")), "reason": str(v.get("reason", "")), "message": str(v.get("message", ""))}
+            for v in verdicts or [] if isinstance(v, dict)] if isinstance(verdicts, list) else []
+    return sorted(rows, key=lambda r: r["ok"])

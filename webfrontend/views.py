@@ -12,7 +12,7 @@ from django.contrib import messages
 from django.contrib.auth.decorators import login_required
 from django.core.paginator import Paginator
 from django.db.models import Count, Q
-from django.http import FileResponse, Http404, HttpResponse
+from django.http import FileResponse, Http404, HttpResponse, JsonResponse
 from django.shortcuts import get_object_or_404, redirect, render
 from django.urls import reverse
 from django.utils.http import urlencode
@@ -60,22 +60,11 @@ def _page(request, queryset):
     return Paginator(queryset, LIST_PAGE_SIZE).get_page(params.page_number(request.GET))
 
 
-def _png(fig) -> HttpResponse:
-    response = HttpResponse(plots.png(fig), content_type="image/png")
+def _plots_json(plot_list: list[dict]) -> JsonResponse:
+    """Plots for plots.js (webfrontend.plots says what one holds); no NaN in the JSON (finite_or_none)."""
+    response = JsonResponse({"plots": plot_list}, json_dumps_params={"allow_nan": False, "separators": (",", ":")})
     response["Cache-Control"] = "max-age=60"
     return response
-
-
-def _shared_series(runs) -> dict:
-    """Series the runs have, ``{(kind, name): {run_id: Series}}``, in two queries whatever their size: only
-    the first series of each (kind, name) carries its columns (the plot list needs its quantities); the
-    plot images load the data they draw."""
-    groups: dict = {}
-    for series in Series.objects.filter(run__in=runs).defer("columns").order_by("kind", "name", "run_id"):
-        groups.setdefault((series.kind, series.name), {})[series.run_id] = series
-    firsts = {next(iter(by_run.values())).pk for by_run in groups.values()}
-    full = {s.pk: s for s in Series.objects.filter(pk__in=firsts)}
-    return {key: {run_id: full.get(s.pk, s) for run_id, s in by_run.items()} for key, by_run in groups.items()}
 
 
 def bad_request(request, exception):
@@ -147,19 +136,15 @@ def run_detail(request, run_id):
         "run": run, "label": presentation.run_label(run), "timings": [presentation.timing_bar(run)],
         "verdict": stored_verdict(run), "texts": files.texts(), "artifacts": files.artifacts(),
         "build_log": presentation.tail(run.build.log, settings.DASHBOARD_TEXT_LIMIT),
-        "plots": presentation.run_plots(run), "form": OverrideForm(run)})
+        "has_series": bool(run.series.all()), "expectations": presentation.expectation_rows(files),
+        "form": OverrideForm(run)})
 
 
-def run_plot(request, run_id, series_id):
-    series = get_object_or_404(Series, pk=series_id, run_id=run_id)
-    quantity = params.text(request.GET, "q")
-    if quantity is not None and quantity not in plots.quantities(series):
-        raise Http404("no such quantity")
-    if quantity is None and series.kind != "plot":
-        quantity = (plots.quantities(series) or [None])[0]
-    if not plots.quantities(series):
-        raise Http404("nothing to plot")
-    return _png(plots.series_figure([(f"#{run_id}", series)], quantity))
+def run_plots(request, run_id):
+    """Every quantity of every series of a run and every declared plot (thesis fig. 4.4), with the run
+    configuration's expectations drawn over the quantities they bound."""
+    run = get_object_or_404(Run.objects.only("id", "config"), pk=run_id)
+    return _plots_json(presentation.run_plots(run, Series.objects.filter(run=run)))
 
 
 def run_file(request, run_id, relative):
@@ -188,7 +173,8 @@ def _comparison(runs) -> dict:
     return {"runs": runs, "compared": [(r, presentation.run_label(r)) for r in runs],
             "timings": presentation.timing_bars(runs), "diffs": diffs, "compare_limit": COMPARE_LIMIT,
             "contents": len({r.testcase_hash for r in runs}),
-            "plots": presentation.compare_plots(runs, _shared_series(runs)) if len(runs) > 1 else []}
+            "plots_url": reverse("compare-plots") + "?" + urlencode({"run": ",".join(str(r.pk) for r in runs)})
+            if len(runs) > 1 else None}
 
 
 def compare(request):
@@ -196,21 +182,18 @@ def compare(request):
     return render(request, "webfrontend/compare.html", _comparison(runs))
 
 
-def compare_plot(request):
+def compare_plots(request):
+    """Plots of compared runs: overlaid, and for two runs the consistency bands of the second around the
+    first and its deviation, for more the difference of each to the first."""
     ids = params.id_list(request.GET, "run", COMPARE_LIMIT, "runs")
-    kind = params.choice(request.GET, "kind", Series.Kind.values)
-    name = params.text(request.GET, "name")
-    quantity = params.text(request.GET, "q")
-    if not ids or kind is None or name is None:
-        raise params.BadParameter("run, kind and name: all three are needed for a comparison plot")
-    series = Series.objects.filter(run_id__in=ids, kind=kind, name=name).select_related(
-        "run__target", "run__build", "run__machine", "run__testcase")
-    by_run = {s.run_id: s for s in series}
-    curves = [(presentation.short_label(by_run[i].run), by_run[i]) for i in ids if i in by_run]
-    if not curves or (quantity and quantity not in plots.quantities(curves[0][1])):
-        raise Http404("no such series")
-    return _png(plots.series_figure(curves, quantity or (None if curves[0][1].kind == "plot"
-                                                         else plots.quantities(curves[0][1])[0])))
+    if len(ids) < 2:
+        raise params.BadParameter("run: two or more runs are compared")
+    runs = Run.objects.filter(pk__in=ids).select_related("target", "build", "machine", "testcase")
+    by_id = {r.pk: r for r in runs}
+    runs = [by_id[i] for i in ids if i in by_id]
+    if len(runs) < 2:
+        raise Http404("fewer than two of these runs exist")
+    return _plots_json(presentation.compare_plots(runs, Series.objects.filter(run__in=runs)))
 
 
 def consistency(request, run_id):
@@ -222,18 +205,13 @@ def consistency(request, run_id):
         "results": run.consistency_results.all(), "form": OverrideForm(run)})
 
 
-def consistency_plot(request, run_id, result_id):
-    result = get_object_or_404(ConsistencyResult.objects.select_related(
-        "run__target", "run__build", "run__machine", "run__testcase", "reference_run__target",
-        "reference_run__build", "reference_run__machine", "reference_run__testcase"), pk=result_id, run_id=run_id)
-    pair = Series.objects.filter(run_id__in=[result.run_id, result.reference_run_id], kind=result.series_kind,
-                                 name=result.series_name)
-    by_run = {s.run_id: s for s in pair}
-    if result.reference_run_id not in by_run:
-        raise Http404("the reference run has no such series")
-    return _png(plots.consistency_figure(result, by_run.get(result.run_id), by_run[result.reference_run_id],
-                                         presentation.short_label(result.run),
-                                         presentation.short_label(result.reference_run)))
+def consistency_plots(request, run_id):
+    """The run's trajectories over its reference's with the acceptance bands, one per stored result."""
+    results = list(ConsistencyResult.objects.filter(run_id=run_id).select_related(
+        "run__target", "run__build", "reference_run__target", "reference_run__build").order_by("value", "pk"))
+    if not results and not Run.objects.filter(pk=run_id).exists():
+        raise Http404("no such run")
+    return _plots_json(presentation.consistency_plots(results))
 
 
 @login_required
@@ -263,15 +241,51 @@ def history(request, target_id, testcase):
     runs = runs.select_related("target", "testcase")
     return render(request, "webfrontend/history.html", {
         "target": target, "testcase": case, "page": _page(request, _run_list(runs)),
-        "machine_id": machine_id or ""})
+        "machine_id": machine_id or "", "c_floor": plots.C_AXIS_FLOOR})
 
 
-def history_plot(request, target_id, testcase):
+def history_plots(request, target_id, testcase):
+    """C, stepping time and wall time of the test case over the commits of the target, with the commits
+    harness.regressions marks (on the machine named, else the machine of the newest run)."""
     target, case, machine_id, runs = _history_runs(request, target_id, testcase)
-    runs = list(runs.defer(*LIST_DEFERRED))
-    if not runs:
+    if machine_id is not None:
+        machine = get_object_or_404(Machine, pk=machine_id)
+    else:
+        newest = runs.order_by("-id").values_list("machine_id", flat=True).first()
+        machine = Machine.objects.filter(pk=newest).first() if newest else None
+    if machine is None:
         raise Http404("no runs")
-    return _png(plots.history_figure(runs, case.path, target.name))
+    return _plots_json(presentation.history_plots(target, case, machine))
+
+
+def regressions(request):
+    """The commits where a test case's stepping time or a quantity changed (harness.regressions.histories,
+    as ``harness regressions`` prints them), on one machine, optionally of one target and ``-k`` pattern."""
+    from harness.regressions import histories
+
+    machine = _one_machine(request, "regressions")
+    target_id = params.optional_id(request.GET, "target")
+    pattern = params.text(request.GET, "k")
+    target = get_object_or_404(Target, pk=target_id) if target_id else None
+    found = histories(machine.name, target.name if target else None, pattern) if machine else []
+    return render(request, "webfrontend/regressions.html", {
+        "machine": machine, "target": target, "pattern": pattern or "", "histories": len(found),
+        "changes": presentation.regression_rows(found, machine),
+        "targets": Target.objects.order_by("name"), "machines": Machine.objects.order_by("name")})
+
+
+def _one_machine(request, view: str):
+    """The machine a per-machine page is about: the one named, or the store's only one (None: no machines);
+    with several and none named, a 400 offering each."""
+    machine_id = params.optional_id(request.GET, "machine")
+    if machine_id is not None:
+        return get_object_or_404(Machine, pk=machine_id)
+    machines = list(Machine.objects.order_by("name"))
+    if len(machines) > 1:
+        raise params.BadParameter(f"machine: the store holds runs of {len(machines)} machines; name one",
+                                  links=[(m.name, reverse(view) + "?" + urlencode({"machine": m.pk}))
+                                         for m in machines])
+    return machines[0] if machines else None
 
 
 def sweeps(request):
@@ -280,20 +294,16 @@ def sweeps(request):
     return render(request, "webfrontend/sweeps.html", {"sweeps": current_sweeps()})
 
 
-def sweep_plot(request, build_id, testcase, name):
-    from io import BytesIO
-
-    from harness.sweep import find_sweep, plot
+def sweep_plots(request, build_id, testcase, name):
+    """A sweep's error against run time and against the swept value, from the store (no image drawn)."""
+    from harness.sweep import find_sweep
 
     build = get_object_or_404(Build.objects.select_related("target"), pk=build_id)
     result = find_sweep(build, testcase, name)
     if result is None:
         raise Http404("no such sweep")
-    out = BytesIO()
-    plot(result.table, result.spec, f"{build.target.name}: {result.testcase}/{result.name}", out)
-    response = HttpResponse(out.getvalue(), content_type="image/png")
-    response["Cache-Control"] = "max-age=60"
-    return response
+    return _plots_json(plots.sweep_plots(result.table, result.spec,
+                                         f"{build.target.name}: {result.testcase}/{result.name}"))
 
 
 def _build_choices():

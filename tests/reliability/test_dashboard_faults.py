@@ -135,17 +135,18 @@ class HostileInputTest(TestCase):
         run, m, t = s["inconsistent"].pk, s["ws1"].pk, s["master"].pk
         series = s["inconsistent"].series.first().pk
         ids = ["/runs/{v}/", "/runs/{v}/consistency/", f"/m/{{v}}/t/{t}/", f"/m/{m}/t/{{v}}/",
-               f"/runs/{run}/plot/{{v}}.png", f"/runs/{{v}}/plot/{series}.png", f"/runs/{run}/consistency/{{v}}.png",
-               "/history/{v}/contact_models/hertz/impact/", "/sweeps/{v}/packing/settle/x.png"]
+               "/runs/{v}/plots.json", "/runs/{v}/consistency/plots.json",
+               "/history/{v}/contact_models/hertz/impact/", "/history/{v}/contact_models/hertz/impact/plots.json",
+               "/sweeps/{v}/packing/settle/x.json"]
         paths = ["/testcases/{v}/", f"/m/{m}/t/{t}/f/{{v}}/", f"/runs/{run}/files/{{v}}", f"/history/{t}/{{v}}/",
-                 f"/history/{t}/{{v}}/plot.png", "/sweeps/1/{v}/x.png", "/sweeps/1/packing/{v}.png",
+                 f"/history/{t}/{{v}}/plots.json", "/sweeps/1/{v}/x.json", "/sweeps/1/packing/{v}.json",
                  "/testcases/contact_models/{v}/hertz/", f"/runs/{run}/files/post/{{v}}/torque.csv"]
         queries = ["/?machine={v}", "/?mode={v}", f"/m/{m}/t/{t}/?show={{v}}", f"/m/{m}/t/{t}/?mode={{v}}",
                    "/compare/?run={v}", f"/compare/?run={run},{{v}}", f"/compare/?run={run}&run={{v}}",
-                   f"/compare/plot.png?run={run}&kind=thermo&name=thermo&q={{v}}",
-                   "/compare/plot.png?run={v}&kind=thermo&name=thermo", f"/compare/plot.png?run={run}&kind={{v}}&name={{v}}",
-                   f"/runs/{run}/plot/{series}.png?q={{v}}", f"/history/{t}/contact_models/hertz/impact/?machine={{v}}",
-                   f"/history/{t}/contact_models/hertz/impact/plot.png?machine={{v}}", "/junit.xml?machine={v}",
+                   "/compare/plots.json?run={v}", f"/compare/plots.json?run={run},{{v}}",
+                   f"/compare/plots.json?run={run}&run={{v}}", f"/history/{t}/contact_models/hertz/impact/?machine={{v}}",
+                   f"/history/{t}/contact_models/hertz/impact/plots.json?machine={{v}}", "/junit.xml?machine={v}",
+                   "/regressions/?machine={v}", "/regressions/?target={v}", "/regressions/?k={v}",
                    "/junit.xml?target={v}", "/accounts/login/?next={v}", "/testcases/contact_models/hertz/impact/?page={v}",
                    f"/history/{t}/contact_models/hertz/impact/?page={{v}}",
                    "/admin/harness/override/{v}/change/", "/admin/harness/override/?run__id__exact={v}",
@@ -180,8 +181,8 @@ class HostileInputTest(TestCase):
                 ("/junit.xml?target=99999999999999999999", "target: '99999999999999999999' is not an id"),
                 ("/?machine=1&machine=2", "machine: given 2 times; give it once"),
                 ("/?mode=fancy", "mode: 'fancy' is not one of state, consistency"),
-                (f"/runs/{self.s['reference'].pk}/plot/{series}.png?q=a%00b", "q: 'a\\x00b' holds control characters"),
-                ("/compare/plot.png?run=1", "run, kind and name: all three are needed"),
+                ("/regressions/?k=a%00b", "k: 'a\\x00b' holds control characters"),
+                ("/compare/plots.json?run=1", "run: two or more runs are compared"),
                 (f"/builds/compare/?a={self.s['new_build'].pk}", "a and b: name both builds to compare")]:
             response = self.client.get(url)
             assert response.status_code == 400, url
@@ -191,7 +192,7 @@ class HostileInputTest(TestCase):
     def test_path_values_the_store_cannot_hold_are_404(self):
         run = self.s["reference"].pk
         for url in ("/runs/99999999999999999999/", "/runs/9223372036854775808/consistency/", "/runs/0/",
-                    f"/runs/99999999999999999999/plot/{run}.png", f"/runs/{run}/files/a%00b",
+                    "/runs/99999999999999999999/plots.json", f"/runs/{run}/files/a%00b",
                     f"/runs/{run}/files/{'x' * 5000}", f"/runs/{run}/files/post/../../secret",
                     "/testcases/contact_models/../packing/settle/", "/testcases/a%00b/"):
             response = self.client.get(url)
@@ -272,7 +273,7 @@ class BoundedPagesTest(TestCase):
         assert f"Up to {limit} runs at once" in page.content.decode()
         for url in ("/compare/?run=" + ",".join(map(str, self.ids[:limit + 1])),
                     "/compare/?" + "&".join(f"run={i}" for i in self.ids),
-                    "/compare/plot.png?kind=thermo&name=thermo&run=" + ",".join(map(str, self.ids[:limit + 1]))):
+                    "/compare/plots.json?run=" + ",".join(map(str, self.ids[:limit + 1]))):
             response = self.client.get(url)
             assert response.status_code == 400
             assert f"run: at most {limit} runs at once (got " in response.content.decode()

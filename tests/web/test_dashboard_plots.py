@@ -1,6 +1,8 @@
-"""Plots: titles, axis labels with units, legends, and acceptance bands that agree with the check."""
+"""Plots as data (webfrontend.plots): titles, axis labels with units, legends, acceptance bands that agree
+with the check, expectations, differences, a bounded consistency axis, sweeps on log axes."""
 from __future__ import annotations
 
+import json
 from types import SimpleNamespace
 
 import numpy as np
@@ -13,19 +15,30 @@ def series(kind="thermo", name="thermo", columns=None, x_column="step", meta=Non
     return SimpleNamespace(kind=kind, name=name, x_column=x_column, columns=columns or {}, meta=meta or {})
 
 
-def texts(fig):
-    ax = fig.axes[0]
-    return ax.get_title(), ax.get_xlabel(), ax.get_ylabel(), [t.get_text() for t in fig.legends[0].get_texts()]
+def labels(spec):
+    return [s["label"] for s in spec["series"]]
 
 
 def test_thermo_quantity_has_units_and_run_legend():
     a = series(columns={"step": STEPS, "ke": kinetic_energy(), "atoms": [12] * len(STEPS)})
     b = series(columns={"step": STEPS, "ke": kinetic_energy(1e-4), "atoms": [12] * len(STEPS)})
-    title, xlabel, ylabel, legend = texts(plots.series_figure([("#1 dem-v1", a), ("#2 dem-master", b)], "ke"))
-    assert (title, xlabel, ylabel) == ("thermo: ke", "step [1]", "ke [J]")
-    assert legend == ["#1 dem-v1", "#2 dem-master"]
+    spec = plots.series_plot([("#1 dem-v1", a), ("#2 dem-master", b)], "ke")
+    assert (spec["title"], spec["xlabel"], spec["ylabel"]) == ("thermo: ke", "step [1]", "ke [J]")
+    assert labels(spec) == ["#1 dem-v1", "#2 dem-master"]
+    # the second curve is dashed: identical curves stay visible in an overlay
+    assert [s["dash"] for s in spec["series"]] == [False, True]
+    assert spec["x"] == STEPS and spec["series"][1]["values"][-1] == kinetic_energy(1e-4)[-1]
     assert plots.quantities(a) == ["ke", "atoms"]
-    assert plots.png(plots.series_figure([("#1", a)], "ke")).startswith(b"\x89PNG")
+    json.dumps(spec, allow_nan=False)
+
+
+def test_vtk_ke_without_masses_is_per_unit_mass():
+    # harness.postprocess.vtk_aggregates: ke equals ke_per_mass (J/kg) when the dumps carry no masses
+    no_mass = series(kind="vtk", name="dumps", columns={"step": [0, 1], "ke": [2.0, 1.0], "ke_per_mass": [2.0, 1.0]})
+    with_mass = series(kind="vtk", name="dumps", columns={"step": [0, 1], "ke": [0.2, 0.1], "ke_per_mass": [2.0, 1.0]})
+    assert plots.series_plot([("#1", no_mass)], "ke")["ylabel"] == "ke [J/kg]"
+    assert plots.series_plot([("#1", with_mass)], "ke")["ylabel"] == "ke [J]"
+    assert plots.series_plot([("#1", no_mass)], "ke_per_mass")["ylabel"] == "ke_per_mass [J/kg]"
 
 
 def test_declared_plot_uses_its_title_labels_and_legend():
@@ -33,15 +46,41 @@ def test_declared_plot_uses_its_title_labels_and_legend():
                     columns={"t": [0.0, 0.1, 0.2], "torqueZ": [0.0, 1.0, 0.5]},
                     meta={"title": "Torque", "xlabel": "time_[s]", "ylabel": "torque_z_[Nm]",
                           "legend": ["torqueZ_(rotor)"]})
-    assert texts(plots.series_figure([("#1", torque)], None)) == (
+    spec = plots.series_plot([("#1", torque)], None)
+    assert (spec["title"], spec["xlabel"], spec["ylabel"], labels(spec)) == (
         "Torque", "time [s]", "torque z [Nm]", ["torqueZ (rotor)"])
-    fig = plots.series_figure([("#1", torque), ("#2", torque)], None)
-    assert texts(fig)[3] == ["#1, torqueZ (rotor)", "#2, torqueZ (rotor)"]
+    assert labels(plots.series_plot([("#1", torque), ("#2", torque)], None)) == [
+        "#1, torqueZ (rotor)", "#2, torqueZ (rotor)"]
 
 
-def test_text_series_are_not_plotted():
+def test_text_series_are_not_plotted_and_nan_is_a_gap():
     words = series(kind="textfile", name="result.txt", x_column="", columns={"words": ["e", "=", "0.9"]})
     assert plots.quantities(words) == []
+    spec = plots.series_plot([("#1", series(columns={"step": [0, 1, 2], "ke": [1.0, float("nan"), float("inf")]}))], "ke")
+    assert spec["series"][0]["values"] == [1.0, None, None]
+    json.dumps(spec, allow_nan=False)
+
+
+def test_compared_runs_on_different_steps_share_one_abscissa_and_differences_are_drawn():
+    a = series(columns={"step": [0, 10, 20], "ke": [1.0, 2.0, 3.0]})
+    b = series(columns={"step": [0, 20, 30], "ke": [1.0, 2.5, 9.0]})
+    spec = plots.series_plot([("#1", a), ("#2", b)], "ke")
+    assert spec["x"] == [0, 10, 20, 30]
+    assert [s["values"] for s in spec["series"]] == [[1.0, 2.0, 3.0, None], [1.0, None, 2.5, 9.0]]
+    diff = plots.difference_plot([("#1", a), ("#2", b)], "ke")
+    assert diff["x"] == [0, 20] and diff["series"][0]["values"] == [0.0, -0.5]
+    assert diff["ylabel"] == "difference of ke [J]" and labels(diff) == ["#2 - #1"]
+
+
+def test_expectations_are_drawn_with_their_tolerance():
+    config = {"expectations": [{"quantity": "thermo.ke", "value": 2.0, "rel_tol": 0.1},
+                               {"quantity": "thermo.ke", "at": "max", "upper": 3.0},
+                               {"quantity": "other.ke", "value": 1.0}]}
+    overlays = plots.expectation_overlays(config, "thermo", "ke")
+    spec = plots.series_plot([("#1", series(columns={"step": [0, 1], "ke": [2.0, 2.1]}))], "ke", overlays)
+    assert labels(spec)[1:] == ["expected end - tolerance", "expected end + tolerance", "upper bound (max)"]
+    assert [s["values"][0] for s in spec["series"][1:]] == [1.8, 2.2, 3.0]
+    assert spec["bands"] == [{"upper": 2, "lower": 1, "fill": overlays[0]["fill"]}]
 
 
 def test_bands_are_the_thesis_levels_and_agree_with_the_check():
@@ -49,43 +88,55 @@ def test_bands_are_the_thesis_levels_and_agree_with_the_check():
 
     ref, run = kinetic_energy(), kinetic_energy(shift=8e-5)
     c, eps, first_bad, level = thesis_consistency(run, ref)
-    # Delta_k = 0.1 |x - x_ref| / eps equals the level exactly at the band edge (thesis eq. 4.3)
     for lvl in (0.05, 0.10):
         assert 0.1 * plots.band_half_width(lvl, eps) / eps == np.float64(lvl)
     assert plots.epsilon_of(ref, None) == eps
     checked = score(ref, run)
     assert abs(checked.value - c) < 1e-12 and checked.level == level == "inconsistent"
-    outside = [s for s, x, r in zip(STEPS, run, ref) if abs(x - r) > plots.band_half_width(0.10, eps)]
-    assert STEPS[checked.first_bad] == outside[0] == first_bad == 1000
 
     result = SimpleNamespace(quantity="ke", series_name="thermo", value=c, level=level, epsilon=eps,
                              first_bad_step=float(first_bad))
-    fig = plots.consistency_figure(result, series(columns={"step": STEPS, "ke": run}),
-                                   series(columns={"step": STEPS, "ke": ref}), "#2 dem-master", "#1 dem-v1")
-    title, xlabel, ylabel, legend = texts(fig)
-    assert title == f"thermo: ke  (C = {c:.4f}, inconsistent)"
-    assert (xlabel, ylabel) == ("step [1]", "ke [J]")
-    assert legend == ["10 % band (good)", "5 % band (perfect)", "reference: #1 dem-v1", "#2 dem-master",
-                      "first out of band: 1000"]
-    # the 10 % band's upper edge lies eps above the reference at every step
-    wide, narrow = fig.axes[0].collections[:2]
-    top = wide.get_paths()[0].vertices
-    upper = {x: y for x, y in top if y >= np.interp(x, STEPS, ref)}
-    for step, r in zip(STEPS, ref):
-        assert abs(upper[step] - (r + eps)) < 1e-15
-    assert narrow.get_paths()[0].vertices[:, 1].max() < top[:, 1].max()
+    overlay, deviation = plots.consistency_plots(result, series(columns={"step": STEPS, "ke": run}),
+                                                 series(columns={"step": STEPS, "ke": ref}), "#2 dem-master",
+                                                 "#1 dem-v1")
+    assert overlay["title"] == f"thermo: ke  (C = {c:.4f}, inconsistent)"
+    assert (overlay["xlabel"], overlay["ylabel"]) == ("step [1]", "ke [J]")
+    assert [b["label"] for b in overlay["bands"]] == ["10 % band (good)", "5 % band (perfect)"]
+    assert labels(overlay)[-2:] == ["reference: #1 dem-v1", "#2 dem-master"]
+    assert overlay["markers"] == [{"x": 1000.0, "label": "first out of band: 1000", "color": plots.MARKER_COLOR}]
+    # the 10 % band's upper edge lies eps above the reference at every step, the 5 % one eps/2
+    wide = overlay["series"][overlay["bands"][0]["upper"]]["values"]
+    narrow = overlay["series"][overlay["bands"][1]["upper"]]["values"]
+    for r, w, n in zip(ref, wide, narrow):
+        assert abs(w - (r + eps)) < 1e-15 and abs(n - (r + eps / 2)) < 1e-15
+    # the deviation leaves the 10 % band exactly where the check says
+    dev = deviation["series"][-1]["values"]
+    outside = [s for s, d in zip(STEPS, dev) if abs(d) > eps]
+    assert outside[0] == first_bad == 1000
+    assert deviation["ylabel"] == "x - x_ref [J]"
 
 
-def test_history_has_revisions_in_order():
-    def run(revision, commit, c, t):
-        return SimpleNamespace(build=SimpleNamespace(revision=revision, commit=commit), name="serial",
-                               consistency_min=c, wall_time=t)
+def test_history_bounds_the_consistency_axis_and_keeps_true_values_on_hover():
+    lines = {"serial": {"c": [0.99, -8186.0, 0.97], "stepping": [1.0, 1.0, 2.0], "wall": [3.0, 3.1, 4.0]}}
+    c_plot, time_plot = plots.history_plots(["aaaaaaa", "bbbbbbb", "ccccccc"], lines,
+                                            [{"index": 2, "label": "ccccccc serial: slower"}], "case on dem")
+    assert c_plot["xticks"] == ["aaaaaaa", "bbbbbbb", "ccccccc"] and c_plot["x"] == [0, 1, 2]
+    line = c_plot["series"][0]
+    assert line["values"] == [0.99, plots.C_AXIS_FLOOR, 0.97] and line["hover"] == [0.99, -8186.0, 0.97]
+    assert c_plot["ylimits"][0] > -1 and c_plot["ylimits"][1] > 1
+    assert labels(time_plot) == ["serial stepping time", "serial wall time"]
+    assert time_plot["markers"][0]["x"] == 2 and time_plot["ylabel"] == "time [s]"
+    unclipped = plots.history_plots(["a"], {"s": {"c": [0.9], "stepping": [1.0], "wall": [1.0]}}, [], "t")[0]
+    assert unclipped["ylimits"] is None
 
-    fig = plots.history_figure([run("v1", "a" * 40, 1.0, 2.0), run("HEAD", "b" * 40, 0.8, 1.0)],
-                               "contact_models/hertz/impact", "dem-master")
-    ax_c, ax_t = fig.axes
-    assert [t.get_text() for t in ax_t.get_xticklabels()] == ["v1 (aaaaaaa)", "bbbbbbb"]
-    assert (ax_c.get_ylabel(), ax_t.get_ylabel()) == ("lowest C [1]", "wall time [s]")
-    assert fig.get_suptitle() == "contact_models/hertz/impact on dem-master"
-    assert ax_c.get_title() == "lowest consistency C per revision"
-    assert list(ax_t.lines[0].get_ydata()) == [2.0, 1.0]
+
+def test_sweep_is_log_log_with_the_observed_order():
+    import pandas as pd
+
+    dt = [4e-4, 2e-4, 1e-4]
+    table = pd.DataFrame({"value": dt, "run_time": [1.0, 2.0, 4.0], "quantity": [0.0] * 3,
+                          "error": [5e4 * d ** 2 for d in dt], "state": ["post_processed"] * 3})
+    spec = {"variable": "DT", "error": {"quantity": "thermo.z", "exact": 1.0}}
+    cost, conv = plots.sweep_plots(table, spec, "dem: accuracy/oscillator/dt")
+    assert cost["xlog"] and cost["ylog"] and cost["x"] == [1.0, 2.0, 4.0]
+    assert conv["x"] == sorted(dt) and labels(conv) == ["observed order 2.00", "order 2 (reference slope)"]

@@ -35,13 +35,16 @@ class SweepPageTest(TestCase):
         self.assertIn("observed order <strong>2.00</strong>", html)
         for value in ("0.0004", "0.0002", "0.0001"):
             self.assertIn(f"<td>{value}</td>", html)
-        self.assertIn(f"/sweeps/{self.build.pk}/accuracy/oscillator/dt.png", html)
+        self.assertIn(f'data-plots="/sweeps/{self.build.pk}/accuracy/oscillator/dt.json"', html)
 
-    def test_sweep_plot_is_a_png_and_unknown_sweeps_are_404(self):
-        response = self.client.get(f"/sweeps/{self.build.pk}/accuracy/oscillator/dt.png")
+    def test_sweep_plots_are_log_log_json_and_unknown_sweeps_are_404(self):
+        response = self.client.get(f"/sweeps/{self.build.pk}/accuracy/oscillator/dt.json")
         self.assertEqual(response.status_code, 200)
-        self.assertTrue(response.content.startswith(b"\x89PNG") and len(response.content) > 20_000)
-        self.assertEqual(self.client.get(f"/sweeps/{self.build.pk}/accuracy/oscillator/nope.png").status_code, 404)
+        cost, convergence = response.json()["plots"]
+        self.assertTrue(cost["xlog"] and cost["ylog"])
+        self.assertEqual(cost["xlabel"], "run time [s] (engine time stepping)")
+        self.assertEqual(convergence["series"][0]["label"], "observed order 2.00")
+        self.assertEqual(self.client.get(f"/sweeps/{self.build.pk}/accuracy/oscillator/nope.json").status_code, 404)
 
     def test_navigation_links_to_the_sweeps(self):
         self.assertIn('href="/sweeps/"', self.client.get("/").content.decode())

@@ -1,6 +1,8 @@
 """Every dashboard view through Django's test client, content asserted; query counts fixed."""
 from __future__ import annotations
 
+import json
+
 import re
 import shutil
 import tempfile
@@ -203,9 +205,10 @@ class RunDetailTest(DashboardTest):
             self.assertIn(f"title=\"{category}:", html)
         self.assertIn("pair: 0.400 s", html)
         self.assertIn("post/dump_100.vtp", html)
-        plots = re.findall(r'src="(/runs/\d+/plot/\d+\.png[^"]*)"', html)
-        self.assertEqual(len(plots), 4)  # declared torque plot + atoms, ke, rke (step is the abscissa)
-        self.assertIn("Torque", html)
+        self.assertIn(f'data-plots="/runs/{run.pk}/plots.json"', html)
+        specs = json.loads(self.get(f"/runs/{run.pk}/plots.json").content)["plots"]
+        # declared torque plot first, then atoms, ke, rke (step is the abscissa)
+        self.assertEqual([s["title"] for s in specs], ["Torque", "thermo: atoms", "thermo: ke", "thermo: rke"])
 
     def test_log_markup_is_escaped(self):
         html = self.get(f"/runs/{self.s['inconsistent'].pk}/").content.decode()
@@ -228,15 +231,24 @@ class RunDetailTest(DashboardTest):
                                   columns={"step": [0, 1], "particles": [4, 4]})
         self.assertEqual(self.queries(url), before)
 
-    def test_plots_are_png(self):
-        html = self.get(f"/runs/{self.s['reference'].pk}/").content.decode()
-        for url in re.findall(r'src="(/runs/\d+/plot/\d+\.png[^"]*)"', html):
-            response = self.get(url.replace("&amp;", "&"))
-            self.assertEqual(response["Content-Type"], "image/png")
-            self.assertTrue(response.content.startswith(PNG_MAGIC))
-        series = self.s["reference"].series.get(kind="thermo")
-        self.assertEqual(self.client.get(f"/runs/{self.s['reference'].pk}/plot/{series.pk}.png?q=nope")
-                         .status_code, 404)
+    def test_plots_are_json_with_units(self):
+        response = self.get(f"/runs/{self.s['reference'].pk}/plots.json")
+        self.assertEqual(response["Content-Type"], "application/json")
+        ke = next(s for s in json.loads(response.content)["plots"] if s["title"] == "thermo: ke")
+        self.assertEqual((ke["xlabel"], ke["ylabel"]), ("step [1]", "ke [J]"))
+        self.assertEqual(self.client.get("/runs/999999/plots.json").status_code, 404)
+
+    def test_expectations_from_the_run_record(self):
+        run = self.s["inconsistent"]
+        record = Path(run.folder) / "run.json"
+        record.write_text(json.dumps({"verdicts": [
+            {"ok": True, "reason": "stability", "message": "stability finite: all values finite"},
+            {"ok": False, "reason": "expectation", "message": "expectation thermo.ke (end) = 2 outside 1 +/- 1 %"}]}))
+        html = self.get(f"/runs/{run.pk}/").content.decode()
+        table = html.split('<table class="expectations">', 1)[1].split("</table>", 1)[0]
+        # the failed one first
+        self.assertLess(table.index("not met"), table.index("stability finite"))
+        self.assertIn("expectation thermo.ke (end) = 2 outside 1 +/- 1 %", table)
 
     def test_artifact_download_and_traversal(self):
         run = self.s["reference"]
@@ -266,10 +278,15 @@ class CompareTest(DashboardTest):
         self.assertIn('<div class="add">+{&quot;run&quot;: 2000, &quot;dt&quot;: 2e-5}</div>', html)
         self.assertIn("run configuration: identical", html)
         self.assertIn("&lt;script&gt;", html)  # the log diff, escaped
-        plot_urls = re.findall(r'src="(/compare/plot\.png[^"]*)"', html)
-        self.assertEqual(len(plot_urls), 4)
-        response = self.get(plot_urls[0].replace("&amp;", "&"))
-        self.assertTrue(response.content.startswith(PNG_MAGIC))
+        url = re.search(r'data-plots="(/compare/plots\.json[^"]*)"', html).group(1).replace("&amp;", "&")
+        specs = json.loads(self.get(url).content)["plots"]
+        titles = [s["title"] for s in specs]
+        # per quantity: the overlay, then the second run in the bands around the first and its deviation
+        self.assertEqual(titles[0], "Torque")
+        ke = titles.index("thermo: ke")
+        self.assertEqual(titles[ke + 1], f"thermo: ke  (C = {self.s['c']:.4f}, inconsistent)")
+        self.assertTrue(titles[ke + 2].startswith("thermo: ke, deviation from the reference"))
+        self.assertEqual(specs[ke + 1]["markers"][0]["x"], self.s["first_bad"])
 
     def test_three_runs_without_diffs(self):
         ids = [self.s[k].pk for k in ("reference", "inconsistent", "older")]
@@ -277,7 +294,9 @@ class CompareTest(DashboardTest):
         self.assertIn("Comparison of 3 runs", html)
         self.assertIn("select exactly two", html)
         self.assertEqual(html.count('class="timing-row"'), 3)
-        self.assertIn("(3 of 3 runs)", html)
+        url = re.search(r'data-plots="(/compare/plots\.json[^"]*)"', html).group(1).replace("&amp;", "&")
+        titles = [s["title"] for s in json.loads(self.get(url).content)["plots"]]
+        self.assertIn(f"thermo: ke, difference to #{ids[0]} dem-v1@v1 (aaaaaaa)", titles)
 
     def test_timing_bars_share_one_scale(self):
         html = self.get(f"/compare/?run={self.s['older'].pk}&run={self.s['inconsistent'].pk}").content.decode()
@@ -304,10 +323,11 @@ class ConsistencyTest(DashboardTest):
         self.assertIn("inconsistent", html)
         self.assertIn(f"<td class=\"num\">{self.s['first_bad']}</td>", html)
         self.assertIn("Differences (unified diff", html)
-        urls = re.findall(r'src="(/runs/\d+/consistency/\d+\.png)"', html)
-        self.assertEqual(len(urls), 2)
-        for url in urls:
-            self.assertTrue(self.get(url).content.startswith(PNG_MAGIC))
+        self.assertIn(f'data-plots="/runs/{run.pk}/consistency/plots.json"', html)
+        specs = json.loads(self.get(f"/runs/{run.pk}/consistency/plots.json").content)["plots"]
+        # ke (lowest C first) and atoms: each the bands and the deviation
+        self.assertEqual(len(specs), 4)
+        self.assertEqual(specs[0]["title"], f"thermo: ke  (C = {self.s['c']:.4f}, inconsistent)")
 
     def test_lowest_c_listed_first(self):
         html = self.get(f"/runs/{self.s['inconsistent'].pk}/consistency/").content.decode()
@@ -419,8 +439,30 @@ class HistoryJunitStaticTest(DashboardTest):
         self.assertIn("History of contact_models/hertz/impact on dem-master", html)
         self.assertLess(html.index("<code>bbbbbbbbbb</code>"), html.index("<code>cccccccccc</code>"))
         self.assertIn("0.9900", html)
-        url = re.search(r'src="(/history/[^"]+)"', html).group(1).replace("&amp;", "&")
-        self.assertTrue(self.get(url).content.startswith(PNG_MAGIC))
+        url = re.search(r'data-plots="(/history/[^"]+)"', html).group(1).replace("&amp;", "&")
+        c_plot, time_plot = json.loads(self.get(url).content)["plots"]
+        self.assertEqual(c_plot["xticks"], ["bbbbbbb", "ccccccc"])
+        self.assertEqual(c_plot["series"][0]["values"], [0.99, self.s["c"]])
+        self.assertEqual([x["label"] for x in time_plot["series"]], ["serial stepping time", "serial wall time"])
+        self.assertEqual(time_plot["series"][1]["values"], [2.0, 1.1])
+
+    def test_regressions_mark_the_commit_that_changed_a_quantity(self):
+        s = self.s
+        # finished runs: the older build's run is, for its own build, the consistent run it ended as
+        Run.objects.exclude(state="not_executed").update(finished=s["older"].started)
+        html = self.get("/regressions/").content.decode()
+        table = html.split('<table class="regressions">', 1)[1].split("</table>", 1)[0]
+        self.assertIn("<code>cccccccccc</code>", table)
+        self.assertIn('<span class="change quantity">quantity</span>', table)
+        self.assertIn("contact_models/hertz/impact/serial", table)
+        self.assertIn(f"ke C = {s['c']:.3g}", table)
+        self.assertIn(f'href="/history/{s["master"].pk}/contact_models/hertz/impact/?machine={s["ws1"].pk}"', table)
+        url = f"/history/{s['master'].pk}/{s['hertz'].path}/plots.json?machine={s['ws1'].pk}"
+        c_plot = json.loads(self.get(url).content)["plots"][0]
+        self.assertEqual([m["x"] for m in c_plot["markers"]], [1])
+        self.assertIn("quantity", c_plot["markers"][0]["label"])
+        self.assertNotIn("<code>cccccccccc</code>",
+                         self.get(f"/regressions/?target={s['ref_target'].pk}").content.decode())
 
     def test_junit_xml(self):
         response = self.get("/junit.xml")
