@@ -62,9 +62,14 @@ class OverviewTest(DashboardTest):
         self.assertIn("1 failed", row)
         self.assertIn("1 not executed", row)
         self.assertNotIn("outdated", row)
-        self.assertIn("fill blue", row)  # 1 of 3 successful: 33 % is blue, below 25 % would be red
+        self.assertIn("fill red", row)  # a failure is red, whatever the share of successful runs
         packing = master[master.index(">packing/<"):]
         self.assertIn("fill green", packing[:packing.index("</tr>")])
+        # "0 failed" is no alarm: grey, not red
+        self.assertIn('<span class="count failed zero">0 failed</span>', packing[:packing.index("</tr>")])
+        # the target's verdict and revision head it
+        self.assertIn('<span class="target-verdict failing">failing</span> <a href=', html)
+        self.assertIn('<code class="revision">cccccccccc</code>', html)
 
     def test_older_build_runs_are_named_when_the_current_build_has_none(self):
         from harness.models import Build
@@ -77,17 +82,20 @@ class OverviewTest(DashboardTest):
         self.assertIn("dem-master on ws1</a>: 4 runs of older builds; current build <code>bbbbbbbbbb</code> "
                       "has none yet", html)
 
-    def test_bar_colors_follow_thesis_thresholds(self):
+    def test_bar_colors_say_whether_anything_failed(self):
         from harness.queries import Tally
+        from webfrontend.templatetags.dashboard import bar_color, verdict
 
-        def tally(ok, bad):
-            return Tally("x", "x", counts={"successful": ok, "failed": bad})
+        def tally(ok, bad, not_run=0):
+            return Tally("x", "x", counts={"successful": ok, "failed": bad, "not_executed": not_run})
 
-        self.assertEqual(tally(1, 4).bar_color(), "red")     # 20 %
-        self.assertEqual(tally(1, 3).bar_color(), "blue")    # 25 %
-        self.assertEqual(tally(9, 1).bar_color(), "blue")    # 90 %
-        self.assertEqual(tally(3, 0).bar_color(), "green")   # 100 %
-        self.assertEqual(tally(0, 0).bar_color(), "red")     # nothing ran
+        self.assertEqual(bar_color(tally(1, 3)), "red")      # 3 failures of 4: no calm blue
+        self.assertEqual(bar_color(tally(9, 1)), "red")      # one failure is a failure
+        self.assertEqual(bar_color(tally(2, 0, 1)), "grey")  # nothing failed, not all ran
+        self.assertEqual(bar_color(tally(3, 0)), "green")    # 100 %
+        self.assertEqual(bar_color(tally(0, 0)), "grey")     # nothing ran: no alarm, no success
+        self.assertEqual([verdict(tally(1, 3)), verdict(tally(3, 0)), verdict(tally(2, 0, 1)), verdict(tally(0, 0))],
+                         ["failing", "passing", "incomplete", "empty"])
 
     def test_consistency_mode_counts_and_lowest_c(self):
         html = self.get("/?mode=consistency").content.decode()
