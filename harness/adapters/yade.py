@@ -104,8 +104,8 @@ class YadeAdapter(EngineAdapter):
             return ["env", f"PYTHONPATH={SUPPORT}"] + executable + ["-n", "-x", script] + arguments
         prefix = [python, str(LAUNCHER), "--log", log]
         if mpi:
-            prefix += ["--refuse", "run type mpi: the harness runs YADE serially (OpenMP threads with -j in "
-                                   "the target's executable); use type serial"]
+            prefix += ["--refuse", "run type mpi: the harness runs YADE serially, with one OpenMP thread; "
+                                   "use type serial"]
         return prefix + executable + [script] + arguments
 
     def log_file(self) -> str:

@@ -6,8 +6,8 @@
 XML-RPC info server on port 21000 (or the next free ports; yade/remote.py, ``runServers``), listening on every
 interface. Parallel harness runs need neither, so this launcher loads the YADE launcher (Debian:
 ``/usr/bin/yade``, a Python file) as a module, the way YADE documents for using it from other Python
-programs ("yadeimport"): as a module it parses the same options (here ``-n -x``), sets OMP_NUM_THREADS (1
-unless ``-j``), loads the plug-ins and stops before the servers and the IPython session, which only run
+programs ("yadeimport"): as a module it parses the same options (here ``-n -x``), sets OMP_NUM_THREADS (1),
+loads the plug-ins and stops before the servers and the IPython session, which only run
 when the launcher is ``__main__``. The script then runs in ``__main__`` with the names a YADE script expects
 (``O``, ``utils``, engine classes, ...) and ``sys.argv = [SCRIPT, ARG, ...]``.
 

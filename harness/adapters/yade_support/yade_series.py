@@ -109,7 +109,8 @@ class Thermo:
                 continue
             state = body.state
             m = state.mass
-            force, torque = O.forces.f(body.id), O.forces.t(body.id)
+            # sync=True: with several OpenMP threads the per-thread forces are summed only before NewtonIntegrator
+            force, torque = O.forces.f(body.id, True), O.forces.t(body.id, True)
             inertia = state.inertia
             v = [state.vel[k] + 0.5 * dt * (force[k] / m + gravity[k]) for k in range(3)]
             w = [state.angVel[k] + 0.5 * dt * torque[k] / inertia[k] if inertia[k] > 0 else state.angVel[k]
