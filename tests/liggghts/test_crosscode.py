@@ -37,7 +37,8 @@ def crosscode(tmp_path_factory):
 def test_both_codes_ran_every_scene(crosscode):
     engine, reference, _, _, _ = crosscode
     names = ["testcases/crosscode/lattice_drop/drop", "testcases/crosscode/wall_oblique/impact"]
-    assert sorted(engine) == names and sorted(reference) == names
+    # every scene of testcases/crosscode/ ran in both codes (later scenes, for more codes, too)
+    assert set(names) <= set(engine) and sorted(engine) == sorted(reference)
     for record in [*engine.values(), *reference.values()]:
         assert record["state"] == "post_processed", record["failure_message"]
     assert reference[names[0]]["adapter"] == "liggghts" and engine[names[0]]["adapter"] == "dem"
