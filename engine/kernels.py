@@ -19,6 +19,9 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from .state import FIELD_NAMES
+from .walls import WALL_FIELDS
+
 # columns of the per type-pair parameter table
 P_YSTAR, P_GSTAR, P_BETA, P_LOG_E, P_FRICTION, P_ROLLING_FRICTION, P_COHESION = range(7)
 N_PARAMS = 7
@@ -134,6 +137,12 @@ def _reset_history(c: Combination, wall: bool, indent: str) -> str:
     return (f"{indent}for h in range({c.history_width}):\n{indent}    {target} = 0.0\n")
 
 
+def _unpack(obj: str, fields, names=None) -> str:
+    """Fields of a state object as locals. Numba (0.68, issues 5872/7135) loses writes made through a
+    namedtuple's attribute inside a parallel loop; locals are safe everywhere."""
+    return "".join(f"    {name} = {obj}.{field}\n" for field, name in zip(fields, names or fields))
+
+
 def _particle_head(indent: str) -> str:
     return "".join(indent + ln + "\n" for ln in [
         "xi0 = x[i, 0]", "xi1 = x[i, 1]", "xi2 = x[i, 2]",
@@ -158,9 +167,9 @@ def generate_source(c: Combination) -> str:
 
     # ---- pair forces
     s = ["@njit(cache=True, error_model=\"numpy\")\n",
-         "def pair_forces(x, v, omega, f, torque, radius, mass, ptype, nbr_start, nbr_j, pair_hist, pp, dt,\n"
-         "                char_vel, box):\n",
-         "    for i in range(x.shape[0]):\n", _particle_head(" " * 8),
+         "def pair_forces(s, n, nbr, pp, dt, char_vel, box):\n",
+         _unpack("s", FIELD_NAMES), _unpack("nbr", ("start", "j", "hist"), ("nbr_start", "nbr_j", "pair_hist")),
+         "    for i in range(n):\n", _particle_head(" " * 8),
          "        for k in range(nbr_start[i], nbr_start[i + 1]):\n",
          "            j = nbr_j[k]\n",
          "            dx = xi0 - x[j, 0]\n", "            dy = xi1 - x[j, 1]\n", "            dz = xi2 - x[j, 2]\n"]
@@ -183,12 +192,12 @@ def generate_source(c: Combination) -> str:
     # ---- wall forces
     if c.planes or c.cylinders:
         s = ["@njit(cache=True, error_model=\"numpy\")\n",
-             "def wall_forces(x, v, omega, f, torque, radius, mass, ptype, wall_hist, pp, dt, char_vel,\n"
-             "                plane_axis, plane_pos, plane_vel, plane_type, cyl_center, cyl_radius, cyl_side, cyl_type,\n"
-             "                wall_force):\n",
+             "def wall_forces(s, n, walls, pp, dt, char_vel):\n",
+             _unpack("s", FIELD_NAMES), _unpack("walls", WALL_FIELDS),
+             "    wall_force = walls.force\n",
              "    nplanes = plane_axis.shape[0]\n",
              "    wall_force[:, :] = 0.0\n",
-             "    for i in range(x.shape[0]):\n", _particle_head(" " * 8),
+             "    for i in range(n):\n", _particle_head(" " * 8),
              "        reff = ri\n", "        meff = mi\n"]
         if c.planes:
             s += ["        for w in range(nplanes):\n",
@@ -230,75 +239,69 @@ def generate_source(c: Combination) -> str:
     clear = ("            f[i, 0] = mass[i] * gravity[0]\n            f[i, 1] = mass[i] * gravity[1]\n"
              "            f[i, 2] = mass[i] * gravity[2]\n") if c.gravity else \
         "            f[i, 0] = 0.0\n            f[i, 1] = 0.0\n            f[i, 2] = 0.0\n"
-    walls = ("        wall_forces(x, v, omega, f, torque, radius, mass, ptype, wall_hist, pp, dt, char_vel,\n"
-             "                    plane_axis, plane_pos, plane_vel, plane_type, cyl_center, cyl_radius, cyl_side, cyl_type,\n"
-             "                    wall_force)\n"
-             ) if (c.planes or c.cylinders) else ""
-    move_planes = ("        for w in range(plane_axis.shape[0]):\n"
-                   "            plane_pos[w] += plane_vel[w, plane_axis[w]] * dt\n") if c.planes else ""
-    args = ("x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, pid, x_build, nbr_start, nbr_j,\n"
-            "              pair_hist, wall_hist, pp, dt, char_vel, gravity, lo, hi, periodic, skin, step0, nsteps,\n"
-            "              timers, lost_ids, lost_steps, nlost, plane_axis, plane_pos, plane_vel, plane_type,\n"
-            "              cyl_center, cyl_radius, cyl_side, cyl_type, wall_force")
-    state_out = ("x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, pid, x_build, nbr_start, "
-                 "nbr_j, pair_hist, wall_hist")
-    rebuild_call = ("(x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, pid, nbr_start, nbr_j,\n"
-                    "             pair_hist, wall_hist, x_build) = rebuild(\n"
-                    "                x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, pid, nbr_start,\n"
-                    "                nbr_j, pair_hist, wall_hist, lo, hi, periodic, skin, step, lost_ids, lost_steps, nlost)\n")
+    walls = "        wall_forces(s, n, walls, pp, dt, char_vel)\n" if (c.planes or c.cylinders) else ""
+    move_planes = ("        for w in range(walls.plane_axis.shape[0]):\n"
+                   "            walls.plane_pos[w] += walls.plane_vel[w, walls.plane_axis[w]] * dt\n") if c.planes else ""
+    args = "s, n, nbr, walls, pp, c, step0, nsteps, timers, lost"
+    unpack_constants = ("    dt = c.dt\n    char_vel = c.characteristic_velocity\n    gravity = c.gravity\n"
+                        "    lo = c.lo\n    hi = c.hi\n    periodic = c.periodic\n    skin = c.skin\n")
+    rebuild_call = "n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)\n"
+    unpack_state = "".join(f"            {name} = s.{name}\n" for name in FIELD_NAMES)
     out += [
         "@njit(cache=True, error_model=\"numpy\")\n",
-        f"def setup(x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, pid, x_build, nbr_start, nbr_j,\n"
-        "          pair_hist, wall_hist, pp, dt, char_vel, gravity, lo, hi, periodic, skin, step, lost_ids, lost_steps,\n"
-        "          nlost, plane_axis, plane_pos, plane_vel, plane_type, cyl_center, cyl_radius, cyl_side, cyl_type,\n"
-        "          wall_force):\n",
-        "    \"\"\"Fresh neighbor list and forces for the current state (start of a run after the scene changed).\"\"\"\n",
+        "def setup(s, n, nbr, walls, pp, c, step, lost):\n",
+        "    \"\"\"Fresh neighbor list and forces for the current state (start of a run after the scene changed).\n"
+        "    Returns (particles kept, neighbor list).\"\"\"\n",
+        unpack_constants,
         "    box = hi - lo\n",
-        "    " + rebuild_call.replace("\n            ", "\n        "),
-        "    for i in range(x.shape[0]):\n", clear.replace("\n        ", "\n    ")[4:],
+        "    " + rebuild_call,
+        unpack_state.replace("            ", "    "),
+        "    for i in range(n):\n", clear.replace("\n        ", "\n    ")[4:],
         "        torque[i, 0] = 0.0\n        torque[i, 1] = 0.0\n        torque[i, 2] = 0.0\n",
-        "    pair_forces(x, v, omega, f, torque, radius, mass, ptype, nbr_start, nbr_j, pair_hist, pp, dt,\n"
-        "                char_vel, box)\n",
+        "    pair_forces(s, n, nbr, pp, dt, char_vel, box)\n",
         walls.replace("\n    ", "\n")[4:] if walls else "",
-        f"    return {state_out}\n\n\n",
+        "    return n, nbr\n\n\n",
         "@njit(cache=True, error_model=\"numpy\")\n",
         f"def run_steps({args}):\n",
-        "    \"\"\"nsteps Velocity-Verlet steps (fix nve/sphere order). Returns (status, bad particle, steps done,\n"
-        "    rebuilds, state...); status 1 = non-finite position. timers += [neigh, pair, modify] in s.\"\"\"\n",
+        "    \"\"\"nsteps Velocity-Verlet steps (fix nve/sphere order) of the first n particles of state s. Returns\n"
+        "    (status, bad particle, steps done, rebuilds, particles kept, neighbor list); status 1 = non-finite\n"
+        "    position. timers += [neigh, pair, modify] in s.\"\"\"\n",
+        unpack_constants,
         "    box = hi - lo\n",
         "    half_skin_sq = 0.25 * skin * skin\n",
         "    half_dt = 0.5 * dt\n",
         "    status = 0\n    bad = -1\n    done = 0\n    rebuilds = 0\n",
-        "    for s in range(nsteps):\n",
-        "        step = step0 + s + 1\n",
+        "    for k_step in range(nsteps):\n",
+        "        step = step0 + k_step + 1\n",
         "        t0 = now()\n",
-        "        for i in range(x.shape[0]):\n",
+        unpack_state.replace("            ", "        "),
+        "        for i in range(n):\n",
         "            for a in range(3):\n",
         "                v[i, a] += half_dt * f[i, a] * inv_mass[i]\n",
         "                x[i, a] += dt * v[i, a]\n",
         "                omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]\n",
         move_planes,
         "        t1 = now()\n",
-        "        need, bad = max_displacement_check(x, x_build, half_skin_sq)\n",
+        "        need, bad = max_displacement_check(x, x_build, half_skin_sq, n)\n",
         "        if bad >= 0:\n            status = 1\n            break\n",
         "        if need:\n",
         "            " + rebuild_call.replace("\n            ", "\n                "),
         "            rebuilds += 1\n",
         "        t2 = now()\n",
-        "        for i in range(x.shape[0]):\n", clear,
+        unpack_state.replace("            ", "        "),
+        "        for i in range(n):\n", clear,
         "            torque[i, 0] = 0.0\n            torque[i, 1] = 0.0\n            torque[i, 2] = 0.0\n",
-        "        pair_forces(x, v, omega, f, torque, radius, mass, ptype, nbr_start, nbr_j, pair_hist, pp, dt,\n"
-        "                    char_vel, box)\n",
+        "        pair_forces(s, n, nbr, pp, dt, char_vel, box)\n",
         "        t3 = now()\n",
         walls,
-        "        for i in range(x.shape[0]):\n",
+        "        for i in range(n):\n",
         "            for a in range(3):\n",
         "                v[i, a] += half_dt * f[i, a] * inv_mass[i]\n",
         "                omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]\n",
         "        t4 = now()\n",
         "        timers[0] += t2 - t1\n        timers[1] += t3 - t2\n        timers[2] += (t1 - t0) + (t4 - t3)\n",
         "        done += 1\n",
-        f"    return (status, bad, done, rebuilds, {state_out})\n",
+        "    return status, bad, done, rebuilds, n, nbr\n",
     ]
     text = "".join(out)
     # import exactly the laws the code calls, nothing else
@@ -309,7 +312,7 @@ def generate_source(c: Combination) -> str:
 def _engine_source_hash() -> str:
     digest = hashlib.sha256()
     here = Path(__file__).parent
-    for name in ("kernels.py", "contact_laws.py", "neighbor.py", "clock.py"):
+    for name in ("kernels.py", "contact_laws.py", "neighbor.py", "clock.py", "state.py", "walls.py"):
         digest.update((here / name).read_bytes())
     return digest.hexdigest()
 

@@ -7,18 +7,35 @@ cell so that neighbors are close in memory, and (4) carries every pair's contact
 list (history rows follow their pair through the re-ordering; a pair that swaps its i/j roles gets its
 history negated, since every history vector we store is antisymmetric in i and j).
 """
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
+
+from .state import reorder
+
+#: the half list in CSR form and the contact history of each listed pair (width 0 without a history submodel)
+NeighborList = namedtuple("NeighborList", ["start", "j", "hist"])
+#: particles removed for leaving a fixed axis' range: ids, steps, and count[0] entries used
+LostParticles = namedtuple("LostParticles", ["ids", "steps", "count"])
+
+
+def empty_list(history: int = 0) -> NeighborList:
+    return NeighborList(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros((0, history)))
+
+
+def lost_record(capacity: int) -> LostParticles:
+    return LostParticles(np.zeros(capacity, np.int64), np.zeros(capacity, np.int64), np.zeros(1, np.int64))
 
 #: bins per particle above which the cell grid is coarsened, keeps memory linear in N
 MAX_CELLS_PER_PARTICLE = 8
 
 
 @njit(cache=True, error_model="numpy")
-def max_displacement_check(x, x_build, half_skin_sq):
-    """(rebuild needed, index of the first particle with a non-finite position or -1)."""
+def max_displacement_check(x, x_build, half_skin_sq, n):
+    """(rebuild needed, index of the first of the n particles with a non-finite position or -1)."""
     need = False
-    for i in range(x.shape[0]):
+    for i in range(n):
         dx = x[i, 0] - x_build[i, 0]
         dy = x[i, 1] - x_build[i, 1]
         dz = x[i, 2] - x_build[i, 2]
@@ -53,13 +70,18 @@ def _axis_neighbor_cells(c, nc, periodic, out):
 
 
 @njit(cache=True, error_model="numpy")
-def rebuild(x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, pid,
-            nbr_start, nbr_j, pair_hist, wall_hist, lo, hi, periodic, skin, step, lost_ids, lost_steps, nlost):
-    """Rebuild the neighbor list; see the module docstring. nlost: int64[1], incremented per lost particle.
+def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost):
+    """Rebuild the neighbor list of the first n particles of state s; see the module docstring.
 
-    Returns the (possibly re-ordered and shortened) particle arrays, the new list, its history and x_build.
+    The particle rows of s are re-ordered in place (lost particles dropped: the survivors fill the first rows).
+    lost: a LostParticles record, its count incremented per lost particle. Returns (particles kept, new list).
     """
-    n = x.shape[0]
+    x = s.x
+    radius = s.radius
+    pid = s.pid
+    nbr_start = nbr.start
+    nbr_j = nbr.j
+    pair_hist = nbr.hist
     box = hi - lo
     keep = np.ones(n, dtype=np.bool_)
     for i in range(n):
@@ -70,9 +92,9 @@ def rebuild(x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, 
             elif x[i, a] < lo[a] or x[i, a] > hi[a]:
                 keep[i] = False
         if not keep[i]:
-            lost_ids[nlost[0]] = pid[i]
-            lost_steps[nlost[0]] = step
-            nlost[0] += 1
+            lost.ids[lost.count[0]] = pid[i]
+            lost.steps[lost.count[0]] = step
+            lost.count[0] += 1
     kept = np.nonzero(keep)[0]
     nk = kept.shape[0]
 
@@ -137,19 +159,7 @@ def rebuild(x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, 
     for q in range(nk):
         new_index[order[q]] = q
 
-    x = x[order]
-    v = v[order]
-    f = f[order]
-    omega = omega[order]
-    torque = torque[order]
-    radius = radius[order]
-    mass = mass[order]
-    inv_mass = inv_mass[order]
-    inv_inertia = inv_inertia[order]
-    ptype = ptype[order]
-    pid = pid[order]
-    if wall_hist.shape[0] > 0:
-        wall_hist = wall_hist[order]
+    reorder(s, order)
 
     # pairs within cutoff_ij = r_i + r_j + skin, half list with i < j
     capacity = max(nbr_j.shape[0] + nbr_j.shape[0] // 4, 8 * nk + 16)
@@ -249,9 +259,10 @@ def rebuild(x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, 
                         for h in range(width):
                             new_hist[k, h] = b_hist[p, h]
                         break
-    x_build = x.copy()
-    return (x, v, f, omega, torque, radius, mass, inv_mass, inv_inertia, ptype, pid,
-            new_start, new_j, new_hist, wall_hist, x_build)
+    for i in range(nk):
+        for a in range(3):
+            s.x_build[i, a] = x[i, a]
+    return nk, NeighborList(new_start, new_j, new_hist)
 
 
 @njit(cache=True, error_model="numpy")

@@ -10,6 +10,7 @@ import json
 import math
 import re
 import time
+from collections import namedtuple
 from pathlib import Path
 
 import numpy as np
@@ -19,10 +20,16 @@ from .contact_laws import effective_youngs_modulus
 from .errors import InputError, RunFailure, output_failure
 from .kernels import COHESION_MODELS, NORMAL_MODELS, ROLLING_MODELS, TANGENTIAL_MODELS, Combination, build_kernel
 from .log import Log  # noqa: F401 - part of this module's interface (tests build a Simulation on a Log)
-from .neighbor import overlap_statistics
+from . import state as particle_state
+from .neighbor import NeighborList, empty_list, lost_record, overlap_statistics
 from .scene import lattice_points, parameter_table, random_packing, region_bounds
 from .script import Fields
+from .walls import overlap_ratios, wall_set
 from .writers import CsvSeries, write_vtp
+
+#: scalars and small arrays every step reads: dt (s), characteristic velocity (m/s, Hooke), gravity (m/s^2, 3),
+#: domain lo, hi (m, 3), periodic (3 booleans), skin (m)
+Constants = namedtuple("Constants", ["dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin"])
 
 AXES = {"x": 0, "y": 1, "z": 2}
 GLOBAL_QUANTITIES = ("step", "time", "atoms", "ke", "rke", "pe", "energy", "momentum_x", "momentum_y",
@@ -40,11 +47,8 @@ OVERLAP_WARN_RATIO = 0.1
 TIMESTEP_CHECK_EVERY = 1000
 #: largest material type number (the pair parameter table has MAX^2 rows of 7 doubles: 56 MB)
 MAX_MATERIAL_TYPE = 1000
-#: arrays with one entry (or row) per particle, in the order of _state(); their bytes per particle decide
-#: whether a create fits in memory
-PARTICLE_ARRAYS = ("x", "v", "f", "omega", "torque", "radius", "mass", "inv_mass", "inv_inertia", "ptype", "pid",
-                   "x_build")
-STATE_ARRAYS = PARTICLE_ARRAYS + ("nbr_start", "nbr_j", "pair_hist", "wall_hist")
+#: restart file arrays of the neighbor list (the particle fields are stored under their names, state.py)
+NEIGHBOR_ARRAYS = {"nbr_start": "start", "nbr_j": "j", "pair_hist": "hist"}
 
 
 def check_quantity(name: str) -> bool:
@@ -69,6 +73,8 @@ class Simulation:
         self.walls: list[dict] = []
         self.plane_pos = np.zeros(0)
         self.wall_force = np.zeros((0, 3))  # N, on each wall (planes, then cylinders) at the last step
+        self.state = particle_state.empty()
+        self.nbr = empty_list()
         self.modifiers: dict[str, dict] = {}
         self.active: list[str] = []
         self.timestep_fraction = 0.2
@@ -86,23 +92,6 @@ class Simulation:
         self.lost_total = 0
         self.timing = dict(pair=0.0, neigh=0.0, comm=0.0, modify=0.0, output=0.0, other=0.0, total=0.0,
                            cpu=0.0, compile=0.0, steps=0, particles=0, particle_steps=0)
-        n = 0
-        self.x = np.zeros((n, 3))
-        self.v = np.zeros((n, 3))
-        self.f = np.zeros((n, 3))
-        self.omega = np.zeros((n, 3))
-        self.torque = np.zeros((n, 3))
-        self.radius = np.zeros(n)
-        self.mass = np.zeros(n)
-        self.inv_mass = np.zeros(n)
-        self.inv_inertia = np.zeros(n)
-        self.ptype = np.zeros(n, dtype=np.int64)
-        self.pid = np.zeros(n, dtype=np.int64)
-        self.x_build = np.zeros((n, 3))
-        self.nbr_start = np.zeros(1, dtype=np.int64)
-        self.nbr_j = np.zeros(0, dtype=np.int32)
-        self.pair_hist = np.zeros((0, 0))
-        self.wall_hist = np.zeros((0, 0, 0))
 
     # ------------------------------------------------------------------ commands
     def execute(self, cmd: dict, index: int, script: str):
@@ -214,24 +203,23 @@ class Simulation:
         self.walls = planes + cylinders  # wall history columns: planes first, then cylinders
         self.plane_pos = np.array([old_positions.get(w["name"], w["position"]) for w in planes], dtype=np.float64)
         if fresh_history:
-            self.wall_hist = np.zeros((0, 0, 0))
+            self.state = particle_state.fit_wall_history(self.state, 0, 0)
 
     def _particle_bytes(self) -> int:
         """Bytes one particle holds in the state arrays (and its wall history row and neighbor list start)."""
-        per = sum(getattr(self, name).itemsize * int(np.prod(getattr(self, name).shape[1:]))
-                  for name in PARTICLE_ARRAYS)
-        return per + self.nbr_start.itemsize + 8 * 6 * len(self.walls)  # wall history: up to 6 doubles per wall
+        # wall history: up to 6 doubles per wall; one neighbor list start per particle
+        return particle_state.bytes_per_particle(len(self.walls), 6) + self.nbr.start.itemsize
 
     def _check_memory(self, fields: Fields, field: str, new: int, what: str, **temporaries):
         """Refuse a create that cannot fit, before anything is allocated: more bytes than the machine has
         available (memory.available_bytes), or more particles than int32 neighbor indices address."""
-        need = memory.creation_bytes(new, len(self.pid), self._particle_bytes(), **temporaries)
+        need = memory.creation_bytes(new, self.n, self._particle_bytes(), **temporaries)
         available = memory.available_bytes()
         if available is not None and need > available:
             raise fields.error(field, f"{what} {new:.3g} particles, which need about {memory.human(need)} of "
                                f"memory ({self._particle_bytes()} B per particle in the state, plus the "
                                f"temporaries of the create); {memory.human(available)} are available")
-        if len(self.pid) + new > memory.MAX_PARTICLES:
+        if self.n + new > memory.MAX_PARTICLES:
             raise fields.error(field, f"{what} {new:.3g} particles; the engine holds at most "
                                f"{memory.MAX_PARTICLES} (32-bit neighbor indices)")
 
@@ -244,18 +232,12 @@ class Simulation:
         if fields is not None:
             self._check_particle_values(fields, t, radii, mass, np.asarray(velocity, float),
                                         np.asarray(omega, float))
-        self.x = np.ascontiguousarray(np.vstack([self.x, positions]))
-        self.v = np.vstack([self.v, np.tile(velocity, (n, 1))])
-        self.f = np.vstack([self.f, np.zeros((n, 3))])
-        self.omega = np.vstack([self.omega, np.tile(omega, (n, 1))])
-        self.torque = np.vstack([self.torque, np.zeros((n, 3))])
-        self.radius = np.concatenate([self.radius, radii])
-        self.mass = np.concatenate([self.mass, mass])
-        self.inv_mass = np.concatenate([self.inv_mass, 1.0 / mass])
-        self.inv_inertia = np.concatenate([self.inv_inertia, 1.0 / (0.4 * mass * radii ** 2)])
-        self.ptype = np.concatenate([self.ptype, np.full(n, t - 1, dtype=np.int64)])
-        self.pid = np.concatenate([self.pid, np.arange(self.next_id, self.next_id + n, dtype=np.int64)])
-        self.x_build = np.vstack([self.x_build, positions])
+        walls, history = self.state.wall_hist.shape[1:]
+        self.state = particle_state.append(
+            self.state, x=positions, v=np.tile(velocity, (n, 1)), omega=np.tile(omega, (n, 1)), radius=radii,
+            mass=mass, inv_mass=1.0 / mass, inv_inertia=1.0 / (0.4 * mass * radii ** 2),
+            ptype=np.full(n, t - 1, dtype=np.int64), pid=np.arange(self.next_id, self.next_id + n, dtype=np.int64),
+            x_build=positions, wall_hist=np.zeros((n, walls, history)))
         self.next_id += n
         self.dirty = True
 
@@ -342,7 +324,7 @@ class Simulation:
         self._check_memory(fields, "count", count, "asks for", attempts=attempts)
         rng = np.random.Generator(np.random.PCG64([seed, 1]))
         radii = self._radii(fields, count, rng)
-        points = random_packing(region, radii, seed, self.x, self.radius, attempts)
+        points = random_packing(region, radii, seed, self.state.x, self.state.radius, attempts)
         if len(points) < count:
             raise RunFailure(f"{fields.where}: placed only {len(points)} of {count} particles without overlap "
                              f"in {attempts} attempts each; enlarge the region or lower 'count'")
@@ -429,14 +411,14 @@ class Simulation:
         elif prop == "velocity":
             value = fields.vector("value", required=True)
             t = fields.integer("type", None, minimum=1)
-            mask = np.ones(len(self.pid), dtype=bool) if t is None else self.ptype == t - 1
+            mask = np.ones(self.n, dtype=bool) if t is None else self.state.ptype == t - 1
             if mask.any():
-                heaviest = float(self.mass[mask].max())
+                heaviest = float(self.state.mass[mask].max())
                 with np.errstate(all="ignore"):
                     energy = 0.5 * heaviest * float(np.dot(value, value))
                 if not math.isfinite(energy):
                     raise fields.error("value", f"{value} gives a kinetic energy that is not a finite double")
-            self.v[mask] = value
+            self.state.v[mask] = value
             self.dirty = True
 
     def cmd_get(self, fields: Fields):
@@ -460,37 +442,38 @@ class Simulation:
             return float(self.wall_force[k, "xyz".index(m.group(1))]) if k < len(self.wall_force) else 0.0
         m = _PARTICLE_QUANTITY.match(name)
         if m:
-            where = np.nonzero(self.pid == int(m.group(2)))[0]
+            s = self.state
+            where = np.nonzero(s.pid == int(m.group(2)))[0]
             if len(where) == 0:
                 return math.nan
             i = where[0]
             q = m.group(1)
-            array = {"x": self.x, "y": self.x, "z": self.x, "vx": self.v, "vy": self.v, "vz": self.v,
-                     "fx": self.f, "fy": self.f, "fz": self.f, "omegax": self.omega, "omegay": self.omega,
-                     "omegaz": self.omega}[q]
+            array = {"x": s.x, "y": s.x, "z": s.x, "vx": s.v, "vy": s.v, "vz": s.v, "fx": s.f, "fy": s.f,
+                     "fz": s.f, "omegax": s.omega, "omegay": s.omega, "omegaz": s.omega}[q]
             return float(array[i, "xyz".index(q[-1])])
-        mass = self.mass
+        s = self.state
+        mass = s.mass
         if name == "step":
             return self.step
         if name == "time":
             return self.time
         if name == "atoms":
-            return len(self.pid)
+            return self.n
         if name == "ke":
-            return float(0.5 * np.sum(mass * np.einsum("ij,ij->i", self.v, self.v)))
+            return float(0.5 * np.sum(mass * np.einsum("ij,ij->i", s.v, s.v)))
         if name == "rke":
-            return float(0.5 * np.sum(0.4 * mass * self.radius ** 2 * np.einsum("ij,ij->i", self.omega, self.omega)))
+            return float(0.5 * np.sum(0.4 * mass * s.radius ** 2 * np.einsum("ij,ij->i", s.omega, s.omega)))
         if name == "pe":
             g = self.gravity_vector()
-            return float(-np.sum(mass * (self.x @ g)))
+            return float(-np.sum(mass * (s.x @ g)))
         if name == "energy":
             return self.quantity("ke") + self.quantity("rke") + self.quantity("pe")
         if name.startswith("momentum_"):
-            return float(np.sum(mass * self.v[:, AXES[name[-1]]]))
+            return float(np.sum(mass * s.v[:, AXES[name[-1]]]))
         if name.startswith("com_"):
-            return float(np.sum(mass * self.x[:, AXES[name[-1]]]) / np.sum(mass)) if len(mass) else math.nan
+            return float(np.sum(mass * s.x[:, AXES[name[-1]]]) / np.sum(mass)) if len(mass) else math.nan
         if name == "max_speed":
-            return float(np.sqrt(np.max(np.einsum("ij,ij->i", self.v, self.v)))) if len(mass) else 0.0
+            return float(np.sqrt(np.max(np.einsum("ij,ij->i", s.v, s.v)))) if len(mass) else 0.0
         if name in ("contacts", "max_overlap"):
             contacts, _, worst = self.overlaps()
             return contacts if name == "contacts" else worst
@@ -498,9 +481,9 @@ class Simulation:
 
     def overlaps(self):
         """(particle-particle contacts, contacts above 10 % overlap, max overlap / smaller radius)."""
-        if self.lo is None or len(self.nbr_start) != len(self.pid) + 1:
+        if self.lo is None or len(self.nbr.start) != self.n + 1:
             return 0, 0, 0.0
-        return overlap_statistics(self.x, self.radius, self.nbr_start, self.nbr_j, self.lo, self.hi,
+        return overlap_statistics(self.state.x, self.state.radius, self.nbr.start, self.nbr.j, self.lo, self.hi,
                                   self.periodic, OVERLAP_WARN_RATIO)
 
     def gravity_vector(self) -> np.ndarray:
@@ -521,17 +504,18 @@ class Simulation:
         pair only and no primitive wall's speed: README.md says why we keep the smaller, safer bound.
         Vectorised over particles (per-type lookup tables): cheap enough to re-check during a run.
         """
-        if len(self.pid) == 0:
+        s = self.state
+        if self.n == 0:
             return math.inf, math.inf
         ntypes = max(self.materials)
         table = np.full((ntypes + 1, 3), np.nan)
         for t, (y_t, nu_t, rho_t) in self.materials.items():
             table[t] = (y_t, nu_t, rho_t)
-        user_types = self.ptype + 1
+        user_types = s.ptype + 1
         y, nu, rho = table[user_types, 0], table[user_types, 1], table[user_types, 2]
         shear = y / (2.0 * (1.0 + nu))
-        t_r = float(np.min(math.pi * self.radius * np.sqrt(rho / shear) / (0.1631 * nu + 0.8766)))
-        v_max = float(np.sqrt(np.max(np.einsum("ij,ij->i", self.v, self.v))))
+        t_r = float(np.min(math.pi * s.radius * np.sqrt(rho / shear) / (0.1631 * nu + 0.8766)))
+        v_max = float(np.sqrt(np.max(np.einsum("ij,ij->i", s.v, s.v))))
         v_wall = max([float(np.linalg.norm(w["velocity"])) for w in self.walls if w["shape"] == "plane"],
                      default=0.0)
         v = max(2.0 * v_max, v_max + v_wall)
@@ -544,7 +528,7 @@ class Simulation:
             ystar[t] = max(effective_youngs_modulus(*self.materials[t][:2], *self.materials[p][:2])
                            for p in partners)
         ystar_i = ystar[user_types]
-        t_h = float(np.min(2.87 * (self.mass * self.mass / (0.5 * self.radius * ystar_i * ystar_i * v)) ** 0.2))
+        t_h = float(np.min(2.87 * (s.mass * s.mass / (0.5 * s.radius * ystar_i * ystar_i * v)) ** 0.2))
         return t_r, t_h
 
     def check_timestep(self, where: str):
@@ -570,8 +554,9 @@ class Simulation:
                     raise RunFailure(f"{where}: {text} (strict time step check)")
                 warned.add(label)
                 self.log.warning(text)
-        if len(self.pid) and "skin" not in warned:
-            v_max = float(np.sqrt(np.max(np.einsum("ij,ij->i", self.v, self.v))))
+        s = self.state
+        if self.n and "skin" not in warned:
+            v_max = float(np.sqrt(np.max(np.einsum("ij,ij->i", s.v, s.v))))
             if 2.0 * v_max * self.dt > self.skin:
                 warned.add("skin")
                 self.log.warning(f"{prefix}relative velocity {2 * v_max:.4g} m/s times dt exceeds the neighbor "
@@ -583,17 +568,9 @@ class Simulation:
         Plane along axis a at p: overlap r - |x_a - p| (two-sided); z-cylinder: r - (R - rho) inside,
         r - (rho - R) outside, rho the distance from its axis (physics.md, walls).
         """
-        if not self.walls or len(self.pid) == 0:
+        if not self.walls or self.n == 0:
             return 0, 0.0
-        gaps = []
-        planes = [w for w in self.walls if w["shape"] == "plane"]
-        for w, p in zip(planes, self.plane_pos):
-            gaps.append(np.abs(self.x[:, w["axis"]] - p) - self.radius)
-        for w in (w for w in self.walls if w["shape"] == "cylinder"):
-            rho = np.hypot(self.x[:, 0] - w["center"][0], self.x[:, 1] - w["center"][1])
-            gap = (w["radius"] - rho) if w["side"] == "inside" else (rho - w["radius"])
-            gaps.append(gap - self.radius)
-        ratio = -np.array(gaps) / self.radius  # (walls, particles); > 0 where overlapping
+        ratio = overlap_ratios(self.walls, self.plane_pos, self.state.x, self.state.radius)
         return int(np.count_nonzero(ratio > OVERLAP_WARN_RATIO)), max(0.0, float(ratio.max()))
 
     # ------------------------------------------------------------------ run
@@ -614,7 +591,7 @@ class Simulation:
             raise fields.error("steps", "cannot run: no time step (set property timestep first)")
         if self.model is None:
             raise fields.error("steps", "cannot run: no contact model (create a contact_model first)")
-        used = sorted(set((self.ptype + 1).tolist()) | {w["type"] for w in self.walls})
+        used = sorted(set((self.state.ptype + 1).tolist()) | {w["type"] for w in self.walls})
         for a in used:
             for b in used:
                 if a <= b and (a, b) not in self.interactions:
@@ -627,67 +604,46 @@ class Simulation:
             if m and m.group(2) not in names:
                 raise fields.error("steps", f"cannot run: quantity '{q}' names no wall '{m.group(2)}' "
                                    f"(walls: {', '.join(sorted(names)) or 'none'})")
-        if len(self.pid):
-            cutoff = 2 * float(self.radius.max()) + self.skin
+        if self.n:
+            cutoff = 2 * float(self.state.radius.max()) + self.skin
             for a in range(3):
                 if self.periodic[a] and self.hi[a] - self.lo[a] < 2 * cutoff:
                     raise fields.error("steps", f"cannot run: periodic length along {'xyz'[a]} must be at least "
                                        f"twice the neighbor cutoff ({2 * cutoff:g} m)")
 
-    def _wall_arrays(self):
-        planes = [w for w in self.walls if w["shape"] == "plane"]
-        cyls = [w for w in self.walls if w["shape"] == "cylinder"]
-        return (np.array([w["axis"] for w in planes], dtype=np.int64), self.plane_pos,
-                np.array([w["velocity"] for w in planes], dtype=np.float64).reshape(-1, 3),
-                np.array([w["type"] - 1 for w in planes], dtype=np.int64),
-                np.array([w["center"] for w in cyls], dtype=np.float64).reshape(-1, 2),
-                np.array([w["radius"] for w in cyls], dtype=np.float64),
-                np.array([1.0 if w["side"] == "inside" else -1.0 for w in cyls], dtype=np.float64),
-                np.array([w["type"] - 1 for w in cyls], dtype=np.int64))
-
-    def _state(self):
-        return (self.x, self.v, self.f, self.omega, self.torque, self.radius, self.mass, self.inv_mass,
-                self.inv_inertia, self.ptype, self.pid, self.x_build, self.nbr_start, self.nbr_j, self.pair_hist,
-                self.wall_hist)
-
-    def _set_state(self, state):
-        (self.x, self.v, self.f, self.omega, self.torque, self.radius, self.mass, self.inv_mass, self.inv_inertia,
-         self.ptype, self.pid, self.x_build, self.nbr_start, self.nbr_j, self.pair_hist, self.wall_hist) = state
+    @property
+    def n(self) -> int:
+        """Number of particles."""
+        return particle_state.count(self.state)
 
     def _fit_history(self, combo: Combination):
         """History arrays sized for this combination: width 0 (nothing stored) unless a submodel needs it."""
         width = combo.history_width
-        if self.pair_hist.shape[1] != width or self.pair_hist.shape[0] != len(self.nbr_j):
-            self.pair_hist = np.zeros((len(self.nbr_j) if width else 0, width))
-        nwalls = len(self.walls)
-        rows = len(self.pid) if (width and nwalls) else 0
-        if self.wall_hist.shape[1:] != (nwalls if rows else 0, width if rows else 0):
-            self.wall_hist = np.zeros((rows, nwalls if rows else 0, width if rows else 0))
-        elif self.wall_hist.shape[0] != rows:  # particles were added: fresh rows for them
-            grown = np.zeros((rows,) + self.wall_hist.shape[1:])
-            grown[:min(rows, self.wall_hist.shape[0])] = self.wall_hist[:rows]
-            self.wall_hist = grown
-        if len(self.nbr_start) > len(self.pid) + 1:  # stale list after particles vanished: start afresh
-            self.nbr_start = np.zeros(1, dtype=np.int64)
-            self.nbr_j = np.zeros(0, dtype=np.int32)
-            self.pair_hist = np.zeros((0, width))
+        nbr = self.nbr
+        if len(nbr.start) > self.n + 1:  # stale list after particles vanished: start afresh
+            nbr = empty_list(width)
+        if nbr.hist.shape != (len(nbr.j) if width else 0, width):
+            nbr = nbr._replace(hist=np.zeros((len(nbr.j) if width else 0, width)))
+        self.nbr = nbr
+        self.state = particle_state.fit_wall_history(self.state, len(self.walls), width)
 
-    def _report_lost(self, lost_ids, lost_steps, nlost, where: str, started_with: int):
+    def _report_lost(self, lost, where: str, started_with: int):
         """Warn with count and ids; a run that started with particles and has none left fails (LIGGGHTS
         stops with "Lost atoms" by default): an empty simulation is broken physics, not a result."""
+        lost_ids, lost_steps, nlost = lost.ids, lost.steps, int(lost.count[0])
         if nlost:
             ids = ", ".join(str(i) for i in lost_ids[:nlost][:20]) + (" ..." if nlost > 20 else "")
             self.log.warning(f"{nlost} particle(s) left the fixed domain and were removed (ids {ids}; first at "
                              f"step {int(lost_steps[0])})")
             self.lost_total += nlost
-            if started_with and len(self.pid) == 0:
+            if started_with and self.n == 0:
                 raise RunFailure(f"{where}: all {started_with} particles present at the start of the run left the "
                                  f"fixed domain (the last at step {int(lost_steps[nlost - 1])}); nothing is left "
                                  "to simulate")
 
     def total_line(self) -> str:
         """The log's last line after a successful script."""
-        return (f"total: {self.timing['steps']} steps, {len(self.pid)} particles, {self.lost_total} lost, "
+        return (f"total: {self.timing['steps']} steps, {self.n} particles, {self.lost_total} lost, "
                 f"{self.log.warnings} warning(s)")
 
     def cmd_run(self, fields: Fields):
@@ -702,22 +658,20 @@ class Simulation:
         gravity = self.gravity_vector()
         if self.wall_force.shape[0] != len(self.walls):
             self.wall_force = np.zeros((len(self.walls), 3))
-        walls = self._wall_arrays() + (self.wall_force,)
-        self.plane_pos = walls[1]
-        common = (pp, self.dt, self.model["characteristic_velocity"], gravity, self.lo, self.hi, self.periodic,
-                  self.skin)
-        started_with = len(self.pid)
+        walls = wall_set(self.walls, self.plane_pos, self.wall_force)
+        constants = Constants(dt=self.dt, characteristic_velocity=self.model["characteristic_velocity"],
+                              gravity=gravity, lo=self.lo, hi=self.hi, periodic=self.periodic, skin=self.skin)
+        started_with = self.n
         created = self.dirty
         if self.dirty:
-            n = len(self.pid)
-            lost_ids, lost_steps, nlost = np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(1, np.int64)
-            state = kernel.setup(*self._state(), *common, self.step, lost_ids, lost_steps, nlost, *walls)
-            self._set_state(state)
-            self._report_lost(lost_ids, lost_steps, int(nlost[0]), fields.where, started_with)
+            lost = lost_record(self.n)
+            n, self.nbr = kernel.setup(self.state, self.n, self.nbr, walls, pp, constants, self.step, lost)
+            self.state = particle_state.trimmed(self.state, n)
+            self._report_lost(lost, fields.where, started_with)
             self.dirty = False
         # a zero-step call compiles run_steps (or loads it from the disk cache) outside the timed loop
-        kernel.run_steps(*self._state(), *common, self.step, 0, np.zeros(3), np.zeros(1, np.int64),
-                         np.zeros(1, np.int64), np.zeros(1, np.int64), *walls)
+        kernel.run_steps(self.state, self.n, self.nbr, walls, pp, constants, self.step, 0, np.zeros(3),
+                         lost_record(0))
         # the overlap check between chunks is compiled too: not inside the timed loop
         _, n_large, worst = self.overlaps()
         self.timing["compile"] += time.perf_counter() - t0  # first call of a kernel compiles or loads it
@@ -748,21 +702,20 @@ class Simulation:
         self._end_step = end
         while self.step < end:
             stop = self._next_output_step(end)
-            n = len(self.pid)
-            lost_ids, lost_steps, nlost = np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(1, np.int64)
-            result = kernel.run_steps(*self._state(), *common, self.step, stop - self.step, timers, lost_ids,
-                                      lost_steps, nlost, *walls)
-            status, bad, done, rebuilt = result[:4]
-            self._set_state(result[4:])
+            n = self.n
+            lost = lost_record(n)
+            status, bad, done, rebuilt, kept, self.nbr = kernel.run_steps(
+                self.state, n, self.nbr, walls, pp, constants, self.step, stop - self.step, timers, lost)
+            self.state = particle_state.trimmed(self.state, kept)
             particle_steps += done * n
             rebuilds += rebuilt
             self.step += done
             self.time = start_time + (self.step - start_step) * self.dt
             if status == 1:
                 self.step += 1
-                raise RunFailure(f"{fields.where}: non-finite position of particle {int(self.pid[bad])} at step "
+                raise RunFailure(f"{fields.where}: non-finite position of particle {int(self.state.pid[bad])} at step "
                                  f"{self.step}")
-            self._report_lost(lost_ids, lost_steps, int(nlost[0]), fields.where, started_with)
+            self._report_lost(lost, fields.where, started_with)
             self._check_finite(fields.where)
             _, n_large, worst = self.overlaps()
             max_overlap = max(max_overlap, worst)
@@ -782,10 +735,10 @@ class Simulation:
         t["total"] += total
         t["cpu"] += cpu
         t["steps"] += steps
-        t["particles"] = len(self.pid)
+        t["particles"] = self.n
         t["particle_steps"] += particle_steps
         rate = particle_steps / total if total > 0 else 0.0
-        self.log.info(f"Loop time of {total:.6g} s for {steps} steps with {len(self.pid)} particles "
+        self.log.info(f"Loop time of {total:.6g} s for {steps} steps with {self.n} particles "
                       f"({rate:.4g} particle-steps/s); pair {timers[1]:.4g} s, neigh {timers[0]:.4g} s "
                       f"({rebuilds} rebuilds), modify {timers[2]:.4g} s; max overlap {max_overlap:.2%} of radius; "
                       f"particles lost so far {self.lost_total}; cpu {cpu:.6g} s "
@@ -794,15 +747,16 @@ class Simulation:
     def _check_finite(self, where):
         """Positions, velocities, forces, spins and the kinetic energies they give must be finite doubles: a
         speed of 1e200 m/s is finite, its 0.5 m v^2 is not, and thermo would print inf."""
+        s = self.state
         with np.errstate(all="ignore"):
-            kinetic = 0.5 * self.mass * np.einsum("ij,ij->i", self.v, self.v)
-            rotational = 0.2 * self.mass * self.radius ** 2 * np.einsum("ij,ij->i", self.omega, self.omega)
-        for label, array in (("velocity", self.v), ("force", self.f), ("angular velocity", self.omega),
-                             ("position", self.x), ("kinetic energy", kinetic), ("rotational energy", rotational)):
+            kinetic = 0.5 * s.mass * np.einsum("ij,ij->i", s.v, s.v)
+            rotational = 0.2 * s.mass * s.radius ** 2 * np.einsum("ij,ij->i", s.omega, s.omega)
+        for label, array in (("velocity", s.v), ("force", s.f), ("angular velocity", s.omega),
+                             ("position", s.x), ("kinetic energy", kinetic), ("rotational energy", rotational)):
             finite = np.isfinite(array) if array.ndim == 1 else np.all(np.isfinite(array), axis=1)
             bad = np.nonzero(~finite)[0]
             if len(bad):
-                raise RunFailure(f"{where}: non-finite {label} of particle {int(self.pid[bad[0]])} at step "
+                raise RunFailure(f"{where}: non-finite {label} of particle {int(s.pid[bad[0]])} at step "
                                  f"{self.step}")
 
     def _output_every(self):
@@ -823,7 +777,7 @@ class Simulation:
         values = [self.quantity(c) for c in columns]
         for c, value in zip(columns, values):
             if (isinstance(value, float) and not math.isfinite(value) and _PARTICLE_QUANTITY.match(c) is None
-                    and not (c.startswith("com_") and len(self.pid) == 0)):
+                    and not (c.startswith("com_") and self.n == 0)):
                 raise RunFailure(f"{self._where}: non-finite {c} ({value}) at step {self.step}")
         return values
 
@@ -857,9 +811,10 @@ class Simulation:
             folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise output_failure("VTK dump folder", folder, exc) from None
-        order = np.argsort(self.pid, kind="stable")  # files list particles by id, whatever the memory order
-        write_vtp(folder / f"{mod['prefix']}_{self.step}.vtp", self.pid[order], self.ptype[order] + 1,
-                  self.x[order], self.v[order], self.f[order], self.omega[order], self.radius[order])
+        s = self.state
+        order = np.argsort(s.pid, kind="stable")  # files list particles by id, whatever the memory order
+        write_vtp(folder / f"{mod['prefix']}_{self.step}.vtp", s.pid[order], s.ptype[order] + 1, s.x[order],
+                  s.v[order], s.f[order], s.omega[order], s.radius[order])
 
     # ------------------------------------------------------------------ restart
     def write_restart(self, path: str):
@@ -873,7 +828,8 @@ class Simulation:
                          dt=np.nan if self.dt is None else self.dt, skin=self.skin, lo=self.lo, hi=self.hi,
                          periodic=self.periodic, next_id=self.next_id, dirty=self.dirty,
                          walls=json.dumps(self.walls), plane_pos=self.plane_pos, wall_force=self.wall_force,
-                         **dict(zip(STATE_ARRAYS, self._state())))
+                         **particle_state.as_arrays(self.state),
+                         **{key: getattr(self.nbr, name) for key, name in NEIGHBOR_ARRAYS.items()})
         except OSError as exc:
             raise output_failure("restart file", path, exc) from None
         self.log.info(f"wrote restart file {path} at step {self.step}")
@@ -916,9 +872,10 @@ class Simulation:
         self.walls = walls
         self.plane_pos = data["plane_pos"].copy()
         self.wall_force = data["wall_force"].copy()
-        self._set_state(tuple(np.ascontiguousarray(data[k]) for k in STATE_ARRAYS))
+        self.state = particle_state.from_arrays(data)
+        self.nbr = NeighborList(**{name: np.ascontiguousarray(data[key]) for key, name in NEIGHBOR_ARRAYS.items()})
         self.dirty = bool(data["dirty"])
-        self.log.info(f"read restart file {path}: step {self.step}, {len(self.pid)} particles")
+        self.log.info(f"read restart file {path}: step {self.step}, {self.n} particles")
 
     def close(self):
         if self.thermo is not None:
@@ -970,6 +927,10 @@ def _check_restart(data: dict) -> list[dict]:
                              f"shape {tuple('N' if d == 'n' else ('*' if d is None else d) for d in shape)}")
         if kind == "f" and key != "dt" and not np.all(np.isfinite(a)):  # dt is NaN when none was set
             raise ValueError(f"array '{key}' holds non-finite values")
+    if data["wall_hist"].shape[0] not in (0, n) or (data["wall_hist"].shape[0] == 0 and data["wall_hist"].size):
+        raise ValueError(f"array 'wall_hist' has {data['wall_hist'].shape[0]} rows for {n} particles")
+    if data["wall_hist"].shape[0] != n:  # written without wall history: none, for every particle
+        data["wall_hist"] = np.zeros((n, 0, 0))
     if np.any(data["radius"] <= 0) or np.any(data["mass"] <= 0) or np.any(data["ptype"] < 0):
         raise ValueError("a particle with radius, mass or type out of range")
     if int(data["step"]) < 0 or not np.all(data["hi"] > data["lo"]) or float(data["skin"]) <= 0:

@@ -93,10 +93,10 @@ def test_no_history_allocated_without_a_history_submodel(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # the runs write thermo.csv
     sim = make_sim(two_in_contact("no_history"))
     assert sim.overlaps()[0] == 1  # the pair is in contact ...
-    assert sim.pair_hist.nbytes == 0 and sim.wall_hist.nbytes == 0  # ... and stores nothing
+    assert sim.nbr.hist.nbytes == 0 and sim.state.wall_hist.nbytes == 0  # ... and stores nothing
     sim = make_sim(two_in_contact("history"))
-    assert sim.pair_hist.shape == (len(sim.nbr_j), 3) and np.any(sim.pair_hist != 0)
-    assert sim.wall_hist.shape == (2, 1, 3)
+    assert sim.nbr.hist.shape == (len(sim.nbr.j), 3) and np.any(sim.nbr.hist != 0)
+    assert sim.state.wall_hist.shape == (2, 1, 3)
 
 
 def test_generated_kernel_holds_only_named_effects():
