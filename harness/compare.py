@@ -137,8 +137,12 @@ def max_relative_deviation(a_series: list[dict], b_series: list[dict], kind: str
 
 def compare_pair(a, b) -> PairComparison:
     """B against A, both runs of the same test case content."""
-    ok_a, ok_b = effective_state(a) in SUCCESS_STATES, effective_state(b) in SUCCESS_STATES
     pair = PairComparison(a.testcase.path, a.name, "", a, b)
+    # a run that never finished (interrupted harness, still in flight) is no result to compare
+    if effective_state(a) == "not_executed" or effective_state(b) == "not_executed":
+        pair.outcome = "only_b" if effective_state(a) == "not_executed" else "only_a"
+        return pair
+    ok_a, ok_b = effective_state(a) in SUCCESS_STATES, effective_state(b) in SUCCESS_STATES
     if a.stepping_time and b.stepping_time:
         pair.time_ratio = b.stepping_time / a.stepping_time
     if not ok_a or not ok_b:
@@ -201,7 +205,7 @@ def rows(comparison: Comparison) -> list[tuple]:
         detail = ""
         if pair.outcome in ("new_failure", "still_failing", "fixed"):
             failed = pair.b if pair.outcome != "fixed" else pair.a
-            detail = f"{failed.failure_reason}: {failed.failure_message[:60]}"
+            detail = ": ".join(part for part in (failed.failure_reason, failed.failure_message[:60]) if part)
         out.append((pair.testcase, pair.run, pair.outcome, _c(pair.lowest_c),
                     worst.quantity if worst is not None and pair.bad else detail,
                     _dev(max((q.max_relative_deviation for q in pair.quantities

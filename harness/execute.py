@@ -323,7 +323,8 @@ def postprocess_run(spec: dict, folder: Path, record: dict, adapter) -> None:
             density = (config.get("vtk") or {}).get("density")
             dumps = vtk_aggregates(files, density)
             record["series"].append(frame_to_series("vtk", "dumps", dumps, "step",
-                                                    {"files": [str(p.relative_to(folder)) for p in files]}))
+                                                    {"files": [str(p.relative_to(folder)) for p in files],
+                                                     "units": dumps.attrs.get("units", {})}))
     except UserError as exc:
         fail(record, "post_processing", str(exc))
         return

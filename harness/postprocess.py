@@ -186,6 +186,7 @@ def vtk_aggregates(files: list[Path], density: float | None = None) -> pd.DataFr
     in J/kg (column ``ke_per_mass`` is always given too), so that trajectories remain comparable.
     """
     rows = []
+    masses_known = bool(files)
     for path in files:
         arrays = read_vtk_points(path)
         points = arrays["points"]
@@ -199,6 +200,7 @@ def vtk_aggregates(files: list[Path], density: float | None = None) -> pd.DataFr
             rho = arrays["density"].reshape(-1) if "density" in arrays else density
             if rho is not None:
                 mass = 4.0 / 3.0 * np.pi * arrays["radius"].reshape(-1) ** 3 * rho
+        masses_known = masses_known and mass is not None
         row = {"step": dump_step(path) if dump_step(path) is not None else len(rows), "particles": count,
                "ke_per_mass": 0.5 * speed2.sum(),
                "ke": 0.5 * (mass * speed2).sum() if mass is not None else 0.5 * speed2.sum()}
@@ -212,4 +214,9 @@ def vtk_aggregates(files: list[Path], density: float | None = None) -> pd.DataFr
         rows.append(row)
     columns = ["step", "particles", "ke", "ke_per_mass", "vx_mean", "vy_mean", "vz_mean",
                "x_min", "x_max", "y_min", "y_max", "z_min", "z_max"]
-    return pd.DataFrame(rows, columns=columns).sort_values("step", kind="stable").reset_index(drop=True)
+    frame = pd.DataFrame(rows, columns=columns).sort_values("step", kind="stable").reset_index(drop=True)
+    # the unit of "ke" depends on the dumps: the dashboard labels its axis from these (run meta "units")
+    frame.attrs["units"] = {"step": "1", "particles": "1", "ke": "J" if masses_known else "J/kg",
+                            "ke_per_mass": "J/kg", **{f"v{a}_mean": "m/s" for a in "xyz"},
+                            **{f"{a}_{end}": "m" for a in "xyz" for end in ("min", "max")}}
+    return frame

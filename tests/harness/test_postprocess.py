@@ -94,6 +94,8 @@ def test_vtk_aggregates_against_numpy(tmp_path, suffix):
     assert row["y_min"] == pytest.approx(x[:, 1].min(), rel=1e-5)
     no_density = vtk_aggregates([tmp_path / f"dump_100{suffix}"])
     assert no_density["ke"].iloc[0] == pytest.approx(0.5 * (v ** 2).sum(), rel=1e-5)
+    # the unit of ke follows what the dumps carry: J with masses, J/kg without (the dashboard's axis label)
+    assert frame.attrs["units"]["ke"] == "J" and no_density.attrs["units"]["ke"] == "J/kg"
 
 
 def test_dem_adapter_files(tmp_path):
