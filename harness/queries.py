@@ -266,6 +266,15 @@ class RunQuerySet(models.QuerySet):
                 out.append(runs[i])
         return out
 
+    def matrix_runs(self, target_names, machine_name: str) -> dict:
+        """Ids of the runs harness.matrix scores: the successful, not replaced runs of each target's current
+        build on the machine, as ``{(target, test case path, run name, content hash): run id}`` (one query,
+        no series)."""
+        rows = (self.filter(target__name__in=list(target_names), machine__name=machine_name, build__current=True,
+                            build__status="complete", replaced=False, state__in=SUCCESS_STATES)
+                .order_by("id").values_list("target__name", "testcase__path", "name", "testcase_hash", "id"))
+        return {(t, path, name, content): pk for t, path, name, content, pk in rows}
+
     def junit(self, machine_id=None, target_id=None):
         """Runs for a JUnit report (outdated results of older builds left out), optionally of one machine
         and target."""

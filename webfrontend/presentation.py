@@ -308,3 +308,52 @@ def expectation_rows(files) -> list[dict]:
     rows = [{"ok": bool(v.get("ok")), "reason": str(v.get("reason", "")), "message": str(v.get("message", ""))}
             for v in verdicts or [] if isinstance(v, dict)] if isinstance(verdicts, list) else []
     return sorted(rows, key=lambda r: r["ok"])
+
+
+class StoreTarget(str):
+    """A target named by the store alone, for harness.matrix.build_matrix: it reads ``.name`` and passes the
+    target on to harness.builds.current_build, which takes a bare name for the recorded current build (no git
+    command in a request, no build made current by looking at a page)."""
+
+    @property
+    def name(self) -> str:
+        return str(self)
+
+
+def matrix_blocks(matrix, run_ids: dict) -> list[dict]:
+    """``harness matrix``'s tables (harness.matrix.format_matrix) as rows of cells: one square table per test
+    case run and quantity (rows the scored code, columns the reference), the particle count only where a cell
+    is not perfect; each cell with its C as the CLI prints it and a link to the two runs compared, the
+    reference first (the code's run in the bands around the reference's). ``run_ids`` is
+    RunQuerySet.matrix_runs of the same targets."""
+    from harness.matrix import QUANTITIES, _c, _short
+
+    blocks = []
+    for (testcase, run_name), present in matrix.runs.items():
+        codes = [n for n in matrix.targets if n in present]
+        ids = {}
+        for code in codes:
+            content = present[code].split(" ", 1)[-1]
+            ids[code] = next((pk for (t, path, name, full), pk in run_ids.items()
+                              if (t, path, name) == (code, testcase, run_name) and full[:8] == content), None)
+        for quantity in QUANTITIES:
+            cells = {(a, b): matrix.cell(testcase, run_name, quantity, a, b) for a in codes for b in codes if a != b}
+            if not any(cells.values()) or (quantity == "atoms" and all(
+                    c is None or c.level == "perfect" for c in cells.values())):
+                continue
+            rows = []
+            for code in codes:
+                row = []
+                for reference in codes:
+                    cell = cells.get((code, reference))
+                    if code == reference or cell is None:
+                        row.append({"diagonal": code == reference})
+                        continue
+                    url = None
+                    if ids.get(code) and ids.get(reference):
+                        url = reverse("compare") + "?" + urlencode({"run": f"{ids[reference]},{ids[code]}"})
+                    row.append({"cell": cell, "text": _c(cell.value), "short": _short(cell.level), "url": url})
+                rows.append({"code": code, "cells": row, "run_id": ids.get(code)})
+            blocks.append({"testcase": testcase, "run": run_name, "quantity": quantity, "codes": codes,
+                           "rows": rows, "provenance": present})
+    return blocks

@@ -27,6 +27,8 @@ urlpatterns = [
     path("sweeps/", views.sweeps, name="sweeps"),
     path("sweeps/<id:build_id>/<relpath:testcase>/<segment:name>.json", views.sweep_plots, name="sweep-plots"),
     path("regressions/", views.regressions, name="regressions"),
+    path("matrix/", views.matrix, name="matrix"),
+    path("matrix.json", views.matrix_json, name="matrix-json"),
     path("junit.xml", views.junit, name="junit"),
     path("accounts/", include("django.contrib.auth.urls")),
     path("admin/", admin.site.urls),

@@ -358,3 +358,63 @@ def junit(request):
     response = HttpResponse(stored_junit_xml(current_runs(machine, target)), content_type="application/xml")
     response["Content-Disposition"] = 'attachment; filename="junit.xml"'
     return response
+
+
+#: targets one matrix compares at most (each pair of them is scored on every run they share)
+MATRIX_TARGET_LIMIT = 12
+
+
+def _matrix(request):
+    """(machine, target names, -k pattern, harness.matrix.Matrix or None) of a matrix request: the targets
+    named (``?target=ID``, in that order), else those named ``*-crosscode`` as ``harness matrix`` takes them."""
+    from harness.matrix import build_matrix
+
+    machine = _one_machine(request, "matrix")
+    ids = params.id_list(request.GET, "target", MATRIX_TARGET_LIMIT, "targets")
+    pattern = params.text(request.GET, "k")
+    if ids:
+        found = dict(Target.objects.filter(pk__in=ids).values_list("pk", "name"))
+        missing = [i for i in ids if i not in found]
+        if missing:
+            raise Http404(f"no target #{missing[0]}")
+        if len(ids) < 2:
+            raise params.BadParameter("target: the matrix needs at least two targets; name another")
+        names = [found[i] for i in ids]
+    else:
+        names = list(Target.objects.filter(name__endswith="-crosscode").order_by("name")
+                     .values_list("name", flat=True))
+    if machine is None or len(names) < 2:
+        return machine, names, pattern, None
+    return machine, names, pattern, build_matrix([presentation.StoreTarget(n) for n in names], machine.name,
+                                                 pattern)
+
+
+def matrix(request):
+    """The cross-code consistency matrix (harness.matrix.build_matrix, what ``harness matrix`` prints): C of
+    every target's run against every other target's run of the same test case content, per quantity; each
+    cell links to the comparison of the two runs with the code's run in the bands around the reference's."""
+    machine, names, pattern, result = _matrix(request)
+    blocks, lowest, ids = [], [], {}
+    if result is not None:
+        from harness.matrix import _c
+
+        blocks = presentation.matrix_blocks(result, Run.objects.matrix_runs(names, machine.name))
+        lowest = [{"code": code, "reference": reference, "cell": cell, "text": _c(cell.value)}
+                  for (code, reference), cell in sorted(result.lowest().items())]
+    chosen = list(Target.objects.filter(name__in=names).values_list("pk", flat=True))
+    query = {"machine": machine.pk} if machine else {}
+    query.update({key: request.GET.getlist(key) for key in ("target", "k") if request.GET.get(key)})
+    return render(request, "webfrontend/matrix.html", {
+        "machine": machine, "names": names, "pattern": pattern or "", "matrix": result, "blocks": blocks,
+        "lowest": lowest, "chosen": chosen, "targets": Target.objects.order_by("name"),
+        "machines": Machine.objects.order_by("name"),
+        "json_url": reverse("matrix-json") + ("?" + urlencode(query, doseq=True) if query else "")})
+
+
+def matrix_json(request):
+    """The matrix as ``harness matrix --json`` writes it (harness.matrix.to_json)."""
+    from harness.matrix import Matrix, to_json
+
+    _, names, _, result = _matrix(request)
+    return JsonResponse(to_json(result if result is not None else Matrix(names)),
+                        json_dumps_params={"allow_nan": False})

@@ -151,7 +151,9 @@ class HostileInputTest(TestCase):
                    f"/history/{t}/contact_models/hertz/impact/?page={{v}}",
                    "/admin/harness/override/{v}/change/", "/admin/harness/override/?run__id__exact={v}",
                    "/builds/compare/?a={v}&b={v}", f"/builds/compare/?a={s['new_build'].pk}&b={{v}}",
-                   "/builds/compare/?a={v}"]
+                   "/builds/compare/?a={v}", "/matrix/?machine={v}", "/matrix/?target={v}",
+                   f"/matrix/?target={t}&target={{v}}", "/matrix/?k={v}", "/matrix.json?target={v}",
+                   "/matrix.json?k={v}"]
         return ids + paths + queries
 
     def test_no_hostile_value_gives_a_500_or_shows_the_environment(self):
