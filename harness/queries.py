@@ -216,6 +216,23 @@ class RunQuerySet(models.QuerySet):
             return qs.exclude(consistency__in=CONSISTENT_LEVELS + ("inconsistent",))
         return self.none()
 
+    def search(self, q=None, commit=None, build=None, state=None, reason=None):
+        """The dashboard's search and filters, each skipped when None: ``q`` a substring (any case) of the test
+        case path or the run name, ``commit`` the start of the build's commit id, ``build`` a build id,
+        ``state`` a run state, ``reason`` a failure reason."""
+        qs = self
+        if q:
+            qs = qs.filter(Q(testcase__path__icontains=q) | Q(name__icontains=q))
+        if commit:
+            qs = qs.filter(build__commit__startswith=commit.lower())
+        if build is not None:
+            qs = qs.filter(build_id=build)
+        if state:
+            qs = qs.filter(state=state)
+        if reason:
+            qs = qs.filter(failure_reason=reason)
+        return qs
+
     def listing(self):
         """Runs for a table: with build, target, machine, test case and the accepted flag (one query)."""
         return (self.select_related("build", "target", "machine", "testcase")

@@ -150,3 +150,31 @@ class SegmentConverter(PathConverter):
     """``<segment:name>``: one path segment (no '/')."""
 
     regex = "[^/]+"
+
+
+_COMMIT_PREFIX = re.compile(r"[0-9a-fA-F]{1,40}")
+
+
+def commit_prefix(query, name: str = "commit") -> str | None:
+    """The start of a commit id (hex digits, at most 40), lower case; None when absent or blank."""
+    value = _single(query, name)
+    if not value:
+        return None
+    if not _COMMIT_PREFIX.fullmatch(value):
+        raise BadParameter(f"{name}: {shown(value)} is not the start of a commit id (1 to 40 hex digits 0-9, a-f)")
+    return value.lower()
+
+
+FILTER_NAMES = ("q", "commit", "build", "state", "reason")
+
+
+def run_filters(query) -> dict:
+    """The search and filters of the run lists, each None when not given: ``q`` (a substring of the test
+    case path or the run name), ``commit`` (commit prefix of the run's build), ``build`` (build id),
+    ``state`` (a run state) and ``reason`` (a failure reason, harness.runrecord.FAILURE_REASONS)."""
+    from harness.models import Run
+    from harness.runrecord import FAILURE_REASONS
+
+    return {"q": text(query, "q"), "commit": commit_prefix(query, "commit"), "build": optional_id(query, "build"),
+            "state": choice(query, "state", Run.State.values),
+            "reason": choice(query, "reason", [r for r in FAILURE_REASONS if r])}

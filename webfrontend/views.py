@@ -51,6 +51,18 @@ def _mode(request) -> tuple[str, str | None]:
     return mode, show
 
 
+def _filters(request) -> dict:
+    """The run lists' search and filters (webfrontend.params.run_filters) and what their pages need: the
+    values, the query string that keeps them in every link (``filter_query``), the choices of the form."""
+    from harness.runrecord import FAILURE_REASONS
+
+    values = params.run_filters(request.GET)
+    kept = {k: v for k, v in values.items() if v is not None}
+    return {"filters": values, "filtered": bool(kept), "filter_query": urlencode(kept),
+            "run_states": Run.State.choices,
+            "failure_reasons": [(r, Run.FailureReason(r).label) for r in FAILURE_REASONS if r]}
+
+
 def _run_list(queryset):
     """A run list's queryset: the reference run's build for provenance, big fields left out."""
     return queryset.select_related("reference_run__build", "reference_run__target").defer(*LIST_DEFERRED)
@@ -77,8 +89,9 @@ def bad_request(request, exception):
 def overview(request):
     mode, _ = _mode(request)
     selected = params.optional_id(request.GET, "machine")
-    runs = _current(Run.objects.all())
-    everything = Run.objects.all()
+    found = _filters(request)
+    runs = _current(Run.objects.search(**found["filters"]))
+    everything = Run.objects.search(**found["filters"])
     if selected is not None:
         runs, everything = runs.filter(machine_id=selected), everything.filter(machine_id=selected)
     machines = runs.overview()
@@ -97,13 +110,15 @@ def overview(request):
                         for key, r in totals.items()), key=lambda u: (u["machine"], u["target"]))
     return render(request, "webfrontend/overview.html", {
         "machines": machines, "mode": mode, "selected": selected, "uncounted": uncounted,
-        "all_machines": Machine.objects.order_by("name")})
+        "all_machines": Machine.objects.order_by("name"), **found})
 
 
 def testcase_runs(request, testcase):
     case = get_object_or_404(TestCase, path=testcase.strip("/"))
+    found = _filters(request)
+    runs = Run.objects.filter(testcase=case).search(**found["filters"])
     return render(request, "webfrontend/testcase.html", {
-        "testcase": case, "page": _page(request, _run_list(Run.objects.filter(testcase=case).listing()))})
+        "testcase": case, "page": _page(request, _run_list(runs.listing())), **found})
 
 
 def folder(request, machine_id, target_id, folder=""):
@@ -111,7 +126,8 @@ def folder(request, machine_id, target_id, folder=""):
     machine = get_object_or_404(Machine, pk=machine_id)
     target = get_object_or_404(Target.objects.select_related("reference"), pk=target_id)
     build = current_build(target.name, machine.name)
-    runs = _current(Run.objects.filter(machine=machine, target=target))
+    found = _filters(request)
+    runs = _current(Run.objects.filter(machine=machine, target=target).search(**found["filters"]))
     folder = folder.strip("/")
     children, whole = runs.folder(folder)
     testcase = None
@@ -126,7 +142,7 @@ def folder(request, machine_id, target_id, folder=""):
         "machine": machine, "target": target, "build": build, "whole": whole, "mode": mode, "show": show,
         "children": [c for c in children if c.matches(show)], "page": page, "testcase": testcase,
         "categories": CONSISTENCY_CATEGORIES if mode == "consistency" else STATE_CATEGORIES,
-        "crumbs": presentation.breadcrumbs(whole.path)})
+        "crumbs": presentation.breadcrumbs(whole.path), **found})
 
 
 def run_detail(request, run_id):

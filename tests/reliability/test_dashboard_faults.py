@@ -154,6 +154,12 @@ class HostileInputTest(TestCase):
                    "/builds/compare/?a={v}", "/matrix/?machine={v}", "/matrix/?target={v}",
                    f"/matrix/?target={t}&target={{v}}", "/matrix/?k={v}", "/matrix.json?target={v}",
                    "/matrix.json?k={v}"]
+        # search and filters of the run lists, alone and twice, on every list that takes them
+        for page in ("/", f"/m/{m}/t/{t}/", f"/m/{m}/t/{t}/f/contact_models/hooke/impact/",
+                     "/testcases/contact_models/hertz/impact/"):
+            for name in ("q", "commit", "build", "state", "reason"):
+                queries += [f"{page}?{name}={{v}}", f"{page}?{name}=1&{name}={{v}}"]
+            queries.append(f"{page}?q={{v}}&commit={{v}}&build={{v}}&state={{v}}&reason={{v}}&page={{v}}")
         return ids + paths + queries
 
     def test_no_hostile_value_gives_a_500_or_shows_the_environment(self):
@@ -185,7 +191,16 @@ class HostileInputTest(TestCase):
                 ("/?mode=fancy", "mode: 'fancy' is not one of state, consistency"),
                 ("/regressions/?k=a%00b", "k: 'a\\x00b' holds control characters"),
                 ("/compare/plots.json?run=1", "run: two or more runs are compared"),
-                (f"/builds/compare/?a={self.s['new_build'].pk}", "a and b: name both builds to compare")]:
+                (f"/builds/compare/?a={self.s['new_build'].pk}", "a and b: name both builds to compare"),
+                ("/?commit=%C2%B2", "commit: '²' is not the start of a commit id"),
+                ("/?commit=" + "a" * 41, "is not the start of a commit id (1 to 40 hex digits"),
+                ("/testcases/contact_models/hertz/impact/?build=-1", "build: '-1' is not an id"),
+                (f"/m/{self.s['ws1'].pk}/t/{self.s['master'].pk}/?state=%00", "state: '\\x00' is not one of"),
+                ("/?reason=", None), ("/?q=" + "x" * 201, "q: longer than 200 characters (201)"),
+                ("/?q=a%00b", "q: 'a\\x00b' holds control characters")]:
+            if message is None:  # blank: no filter
+                assert self.client.get(url).status_code == 200, url
+                continue
             response = self.client.get(url)
             assert response.status_code == 400, url
             text = htmllib.unescape(response.content.decode())
