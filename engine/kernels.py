@@ -1,37 +1,37 @@
 """Kernel builder: one compiled step loop per combination of named submodels.
 
 A scene names its contact submodels (normal, tangential, cohesion, rolling), whether it has plane or
-cylinder walls, gravity and periodic axes. `build_kernel` writes Python source containing exactly those
-pieces - calls into the pure laws of `engine.contact_laws` - into a cache folder keyed by a hash of the
-engine's source and the combination, imports it and compiles it with ``@njit(cache=True)``, so a second run
-(another process) loads the machine code from disk. What the scene does not name is not in the source: no
-branch in the pair loop, no history array (pair history has width 0 without tangential history or EPSD2),
-no wall pass without walls.
+cylinder walls, gravity and periodic axes: a `Combination`. The builder fills the templates below - the
+neighbor loop, the wall loop and the step loop, each written once, after HOOMD-blue's
+``PotentialPair<evaluator>`` - with exactly those pieces: the calls of the laws the scene names
+(`engine.models.LAWS`), their parameter columns and history slots. The source goes into a cache folder keyed
+by a hash of the engine's source and the combination and is compiled with ``@njit(cache=True)``, so a second
+run (another process) loads the machine code from disk. What the scene does not name is not in the source: no
+branch in the pair loop, no history array (pair history has width 0 without a history submodel), no wall pass
+without walls.
 
-Parameter table ``pp[type_i, type_j, :]`` (types 0-based inside the engine, walls have types too):
+Templates are plain text with named slots: a line holding only ``${name}`` is replaced by the slot's lines,
+indented as the slot is; ``${name}`` inside a line by its text (`render`).
 """
 from __future__ import annotations
 
 import hashlib
 import importlib.util
 import os
+import re
+import string
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from .models import LAWS, PARAMETERS, SUBMODELS, choices
 from .state import FIELD_NAMES
 from .walls import WALL_FIELDS
 
-# columns of the per type-pair parameter table
-P_YSTAR, P_GSTAR, P_BETA, P_LOG_E, P_FRICTION, P_ROLLING_FRICTION, P_COHESION = range(7)
-N_PARAMS = 7
-LAWS = ("hertz_normal", "hooke_normal", "sjkr_pair_force", "sjkr_wall_force", "slip_velocity",
-        "tangential_history", "tangential_no_history", "rolling_cdt", "rolling_epsd2")
-
-NORMAL_MODELS = ("hooke", "hertz")
-TANGENTIAL_MODELS = ("none", "no_history", "history")
-COHESION_MODELS = ("none", "sjkr")
-ROLLING_MODELS = ("none", "cdt", "epsd2")
+NORMAL_MODELS = choices("normal")
+TANGENTIAL_MODELS = choices("tangential")
+COHESION_MODELS = choices("cohesion")
+ROLLING_MODELS = choices("rolling")
 
 
 @dataclass(frozen=True)
@@ -49,270 +49,467 @@ class Combination:
     gravity: bool = False
     periodic: tuple = (False, False, False)
 
-    @property
-    def tangential_offset(self) -> int:
-        return 0
+    def law(self, submodel: str):
+        """The law named for a submodel, or None ('none')."""
+        return LAWS.get((submodel, getattr(self, submodel)))
 
-    @property
-    def rolling_offset(self) -> int:
-        return 3 if self.tangential == "history" else 0
+    def laws(self) -> list:
+        """The named laws in evaluation order (normal -> cohesion -> tangential -> rolling, physics.md)."""
+        return [law for law in (self.law(kind) for kind in SUBMODELS) if law is not None]
+
+    def parameter_columns(self) -> dict:
+        """Parameter name -> column of the per type-pair table, for the parameters the named laws read."""
+        used = {p for law in self.laws() for p in law.parameters}
+        return {name: k for k, name in enumerate(p for p in PARAMETERS if p in used)}
+
+    def history_offsets(self) -> dict:
+        """Submodel -> first history column, for the laws that keep history (in evaluation order)."""
+        offsets, width = {}, 0
+        for law in self.laws():
+            if law.history:
+                offsets[law.submodel] = width
+                width += law.history
+        return offsets
 
     @property
     def history_width(self) -> int:
-        """Doubles stored per contact: 3 for the shear displacement, 3 for the EPSD2 rolling torque."""
-        return (3 if self.tangential == "history" else 0) + (3 if self.rolling == "epsd2" else 0)
+        """Doubles stored per contact (3 for the shear displacement, 3 for the EPSD2 rolling torque)."""
+        return sum(law.history for law in self.laws())
 
 
-def _contact_block(c: Combination, wall: bool, indent: str) -> str:
-    """Force law of one contact; expects d, r/dist, en*, vr*, vn, reff, meff, ri, ti, tj (and j for pairs)."""
-    hist = (lambda h: f"wall_hist[i, w, {h}]") if wall else (lambda h: f"pair_hist[k, {h}]")
-    lines = []
-    if c.normal == "hertz":
-        lines.append("fn, kn, kt, gn, gt = hertz_normal(d, vn, pp[ti, tj, 0], pp[ti, tj, 1], pp[ti, tj, 2], reff, meff)")
+# ---------------------------------------------------------------- templates
+
+_BLOCK_SLOT = re.compile(r"^(?P<indent>[ ]*)\$\{(?P<name>\w+)\}[ ]*$", re.M)
+
+
+def render(template: str, **slots) -> str:
+    """template with its slots filled (module docstring); every slot must be given."""
+    def block(m):
+        code = slots[m["name"]]
+        return "\n".join(m["indent"] + line if line.strip() else "" for line in code.splitlines())
+    return string.Template(_BLOCK_SLOT.sub(block, template)).substitute(slots)
+
+
+#: force of one contact on i; the geometry (d, en*, vr*, vn, reff, meff, ...) is computed by the loop around it
+CONTACT = """\
+${normal}
+${limit_force}
+${cohesion}
+fx = fn * enx
+fy = fn * eny
+fz = fn * enz
+${tangential}
+${rolling}
+fix += fx
+fiy += fy
+fiz += fz
+${reaction}
+"""
+
+#: the lever is the contact radius r - d/2 (LIGGGHTS 3.8 surface_model_default.h; at walls too, confirmed by
+#: the cross-code case wall_oblique); a wall does not spin
+SLIP = {False: """\
+cri = ri - 0.5 * d
+crj = rj - 0.5 * d
+wrx = cri * wix + crj * omega[j, 0]
+wry = cri * wiy + crj * omega[j, 1]
+wrz = cri * wiz + crj * omega[j, 2]
+vtx, vty, vtz = slip_velocity(vrx, vry, vrz, vn, enx, eny, enz, wrx, wry, wrz)
+""", True: """\
+cri = ri - 0.5 * d
+wrx = cri * wix
+wry = cri * wiy
+wrz = cri * wiz
+vtx, vty, vtz = slip_velocity(vrx, vry, vrz, vn, enx, eny, enz, wrx, wry, wrz)
+"""}
+
+#: the force of the slot acts at the contact point: torque -cr (en x Ft) on both partners (physics.md)
+TANGENTIAL = """\
+${damping}
+${slip}
+${law}
+fx += ftx
+fy += fty
+fz += ftz
+tqx = -(eny * ftz - enz * fty)
+tqy = -(enz * ftx - enx * ftz)
+tqz = -(enx * fty - eny * ftx)
+tix += cri * tqx
+tiy += cri * tqy
+tiz += cri * tqz
+${partner}
+"""
+TANGENTIAL_PARTNER = "torque[j, 0] += crj * tqx\ntorque[j, 1] += crj * tqy\ntorque[j, 2] += crj * tqz\n"
+
+RELATIVE_SPIN = {False: "wrelx = wix - omega[j, 0]\nwrely = wiy - omega[j, 1]\nwrelz = wiz - omega[j, 2]\n",
+                 True: "wrelx = wix\nwrely = wiy\nwrelz = wiz\n"}
+ROLLING = """\
+${spin}
+${law}
+tix -= rtx
+tiy -= rty
+tiz -= rtz
+${partner}
+"""
+ROLLING_PARTNER = "torque[j, 0] += rtx\ntorque[j, 1] += rty\ntorque[j, 2] += rtz\n"
+
+#: j takes the opposite force (Newton's third law, half list); a wall too: the force users can print
+REACTION = {False: "f[j, 0] -= fx\nf[j, 1] -= fy\nf[j, 2] -= fz\n",
+            True: "wall_force[w, 0] -= fx\nwall_force[w, 1] -= fy\nwall_force[w, 2] -= fz\n"}
+
+PARTICLE_HEAD = """\
+xi0 = x[i, 0]
+xi1 = x[i, 1]
+xi2 = x[i, 2]
+vix = v[i, 0]
+viy = v[i, 1]
+viz = v[i, 2]
+wix = omega[i, 0]
+wiy = omega[i, 1]
+wiz = omega[i, 2]
+ri = radius[i]
+mi = mass[i]
+ti = ptype[i]
+fix = 0.0
+fiy = 0.0
+fiz = 0.0
+tix = 0.0
+tiy = 0.0
+tiz = 0.0
+"""
+PARTICLE_TAIL = """\
+f[i, 0] += fix
+f[i, 1] += fiy
+f[i, 2] += fiz
+torque[i, 0] += tix
+torque[i, 1] += tiy
+torque[i, 2] += tiz
+"""
+
+#: contact history is reset as soon as a contact opens (physically clean; see engine/README.md)
+RESET_HISTORY = "for h in range(${width}):\n    ${target} = 0.0\n"
+
+PAIR_FORCES = '''\
+@njit(cache=True, error_model="numpy")
+def pair_forces(s, n, nbr, pp, dt, char_vel, box):
+    """Contact forces of the listed pairs (half list: each pair once, j takes -F)."""
+    ${unpack}
+    nbr_start = nbr.start
+    nbr_j = nbr.j
+    pair_hist = nbr.hist
+    for i in range(n):
+        ${particle_head}
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            dx = xi0 - x[j, 0]
+            dy = xi1 - x[j, 1]
+            dz = xi2 - x[j, 2]
+            ${periodic_image}
+            rsq = dx * dx + dy * dy + dz * dz
+            rj = radius[j]
+            radsum = ri + rj
+            if rsq >= radsum * radsum:
+                ${reset_history}
+                continue
+            r = sqrt(rsq)
+            enx = dx / r
+            eny = dy / r
+            enz = dz / r
+            d = radsum - r
+            mj = mass[j]
+            tj = ptype[j]
+            meff = mi * mj / (mi + mj)
+            reff = ri * rj / radsum
+            vrx = vix - v[j, 0]
+            vry = viy - v[j, 1]
+            vrz = viz - v[j, 2]
+            vn = vrx * enx + vry * eny + vrz * enz
+            ${contact}
+        ${particle_tail}
+'''
+
+#: a wall has infinite radius and mass (R* = r_i, m* = m_i), its type's material; en points from the wall to
+#: the particle
+PLANE_CONTACTS = """\
+for w in range(nplanes):
+    axis = plane_axis[w]
+    sep = x[i, axis] - plane_pos[w]
+    dist = abs(sep)
+    if dist >= ri:
+        ${reset_history}
+        continue
+    sign = 1.0 if sep >= 0.0 else -1.0
+    enx = sign if axis == 0 else 0.0
+    eny = sign if axis == 1 else 0.0
+    enz = sign if axis == 2 else 0.0
+    d = ri - dist
+    tj = plane_type[w]
+    vrx = vix - plane_vel[w, 0]
+    vry = viy - plane_vel[w, 1]
+    vrz = viz - plane_vel[w, 2]
+    vn = vrx * enx + vry * eny + vrz * enz
+    ${contact}
+"""
+#: en points inward for an inside wall, outward outside
+CYLINDER_CONTACTS = """\
+for q in range(cyl_radius.shape[0]):
+    w = nplanes + q
+    px = xi0 - cyl_center[q, 0]
+    py = xi1 - cyl_center[q, 1]
+    rho = sqrt(px * px + py * py)
+    if cyl_side[q] > 0:
+        dist = cyl_radius[q] - rho
     else:
-        lines.append("fn, kn, kt, gn, gt = hooke_normal(d, vn, pp[ti, tj, 0], pp[ti, tj, 3], reff, meff, char_vel)")
-    if c.limit_force:
-        lines.append("fn = max(fn, 0.0)")
-    if c.cohesion == "sjkr":
-        if wall:
-            lines.append("fn += sjkr_wall_force(dist, ri, pp[ti, tj, 6])")
-        else:
-            lines.append("fn += sjkr_pair_force(r, ri, rj, pp[ti, tj, 6])")
-    lines.append("fx = fn * enx")
-    lines.append("fy = fn * eny")
-    lines.append("fz = fn * enz")
-    if c.tangential != "none":
-        if not c.tangential_damping:
-            lines.append("gt = 0.0")
-        if wall:
-            # the wall does not spin; the particle's lever is r - d/2 as for pairs (LIGGGHTS 3.8
-            # surface_model_default.h; confirmed by the cross-code wall_oblique case against LIGGGHTS)
-            lines += ["cri = ri - 0.5 * d", "wrx = cri * wix", "wry = cri * wiy", "wrz = cri * wiz"]
-        else:
-            lines += ["cri = ri - 0.5 * d", "crj = rj - 0.5 * d",
-                      "wrx = cri * wix + crj * omega[j, 0]", "wry = cri * wiy + crj * omega[j, 1]",
-                      "wrz = cri * wiz + crj * omega[j, 2]"]
-        lines.append("vtx, vty, vtz = slip_velocity(vrx, vry, vrz, vn, enx, eny, enz, wrx, wry, wrz)")
-        if c.tangential == "history":
-            o = c.tangential_offset
-            lines.append(f"ftx, fty, ftz, s0, s1, s2 = tangential_history({hist(o)}, {hist(o + 1)}, {hist(o + 2)}, "
-                         "vtx, vty, vtz, enx, eny, enz, kt, gt, pp[ti, tj, 4], fn, dt)")
-            lines += [f"{hist(o)} = s0", f"{hist(o + 1)} = s1", f"{hist(o + 2)} = s2"]
-        else:
-            lines.append("ftx, fty, ftz = tangential_no_history(vtx, vty, vtz, gt, pp[ti, tj, 4], fn)")
-        lines += ["fx += ftx", "fy += fty", "fz += ftz",
-                  # torque = -cr (en x Ft) on both partners (physics.md, tangential_model_history.h)
-                  "tqx = -(eny * ftz - enz * fty)", "tqy = -(enz * ftx - enx * ftz)", "tqz = -(enx * fty - eny * ftx)",
-                  "tix += cri * tqx", "tiy += cri * tqy", "tiz += cri * tqz"]
-        if not wall:
-            lines += ["torque[j, 0] += crj * tqx", "torque[j, 1] += crj * tqy", "torque[j, 2] += crj * tqz"]
-    if c.rolling != "none":
-        if wall:
-            lines += ["wrelx = wix", "wrely = wiy", "wrelz = wiz"]
-        else:
-            lines += ["wrelx = wix - omega[j, 0]", "wrely = wiy - omega[j, 1]", "wrelz = wiz - omega[j, 2]"]
-        if c.rolling == "cdt":
-            lines.append("rtx, rty, rtz = rolling_cdt(wrelx, wrely, wrelz, enx, eny, enz, pp[ti, tj, 5], kn * d, reff)")
-        else:
-            o = c.rolling_offset
-            lines.append(f"rtx, rty, rtz = rolling_epsd2({hist(o)}, {hist(o + 1)}, {hist(o + 2)}, wrelx, wrely, wrelz, "
-                         "enx, eny, enz, kt, reff, pp[ti, tj, 5], fn, dt)")
-            lines += [f"{hist(o)} = rtx", f"{hist(o + 1)} = rty", f"{hist(o + 2)} = rtz"]
-        lines += ["tix -= rtx", "tiy -= rty", "tiz -= rtz"]
-        if not wall:
-            lines += ["torque[j, 0] += rtx", "torque[j, 1] += rty", "torque[j, 2] += rtz"]
-    lines += ["fix += fx", "fiy += fy", "fiz += fz"]
-    if wall:  # the wall takes the opposite force (a quantity users can print, e.g. the bottom load)
-        lines += ["wall_force[w, 0] -= fx", "wall_force[w, 1] -= fy", "wall_force[w, 2] -= fz"]
-    if not wall:
-        lines += ["f[j, 0] -= fx", "f[j, 1] -= fy", "f[j, 2] -= fz"]
-    return "".join(indent + ln + "\n" for ln in lines)
+        dist = rho - cyl_radius[q]
+    if dist >= ri or rho == 0.0:
+        ${reset_history}
+        continue
+    enx = -cyl_side[q] * px / rho
+    eny = -cyl_side[q] * py / rho
+    enz = 0.0
+    d = ri - dist
+    tj = cyl_type[q]
+    vrx = vix
+    vry = viy
+    vrz = viz
+    vn = vrx * enx + vry * eny + vrz * enz
+    ${contact}
+"""
+
+WALL_FORCES = '''\
+@njit(cache=True, error_model="numpy")
+def wall_forces(s, n, walls, pp, dt, char_vel):
+    """Contact forces of every particle with every wall; walls.force: the force on each wall."""
+    ${unpack}
+    ${unpack_walls}
+    wall_force = walls.force
+    nplanes = plane_axis.shape[0]
+    wall_force[:, :] = 0.0
+    for i in range(n):
+        ${particle_head}
+        reff = ri
+        meff = mi
+        ${planes}
+        ${cylinders}
+        ${particle_tail}
+'''
+
+#: clear forces (gravity is the first force: F = m g), then pairs, then walls
+FORCES = """\
+for i in range(n):
+    ${clear}
+    torque[i, 0] = 0.0
+    torque[i, 1] = 0.0
+    torque[i, 2] = 0.0
+pair_forces(s, n, nbr, pp, dt, char_vel, box)
+${walls}
+"""
+
+STEP_LOOP = '''\
+@njit(cache=True, error_model="numpy")
+def setup(s, n, nbr, walls, pp, c, step, lost):
+    """Fresh neighbor list and forces for the current state (start of a run after the scene changed).
+    Returns (particles kept, neighbor list)."""
+    ${constants}
+    box = hi - lo
+    n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)
+    ${unpack}
+    ${forces}
+    return n, nbr
 
 
-def _reset_history(c: Combination, wall: bool, indent: str) -> str:
-    """Contact history is reset as soon as a contact opens (physically clean; see engine/README.md)."""
-    if c.history_width == 0:
-        return ""
-    target = "wall_hist[i, w, h]" if wall else "pair_hist[k, h]"
-    return (f"{indent}for h in range({c.history_width}):\n{indent}    {target} = 0.0\n")
+@njit(cache=True, error_model="numpy")
+def run_steps(s, n, nbr, walls, pp, c, step0, nsteps, timers, lost):
+    """nsteps Velocity-Verlet steps (fix nve/sphere order) of the first n particles of state s. Returns
+    (status, bad particle, steps done, rebuilds, particles kept, neighbor list); status 1 = non-finite
+    position. timers += [neigh, pair, modify] in s."""
+    ${constants}
+    ${unpack}
+    box = hi - lo
+    half_skin_sq = 0.25 * skin * skin
+    half_dt = 0.5 * dt
+    status = 0
+    bad = -1
+    done = 0
+    rebuilds = 0
+    for k_step in range(nsteps):
+        step = step0 + k_step + 1
+        t0 = now()
+        for i in range(n):
+            for a in range(3):
+                v[i, a] += half_dt * f[i, a] * inv_mass[i]
+                x[i, a] += dt * v[i, a]
+                omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]
+        ${move_planes}
+        t1 = now()
+        need, bad = max_displacement_check(x, x_build, half_skin_sq, n)
+        if bad >= 0:
+            status = 1
+            break
+        if need:
+            n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)
+            rebuilds += 1
+        t2 = now()
+        ${forces_pairs}
+        t3 = now()
+        ${forces_walls}
+        for i in range(n):
+            for a in range(3):
+                v[i, a] += half_dt * f[i, a] * inv_mass[i]
+                omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]
+        t4 = now()
+        timers[0] += t2 - t1
+        timers[1] += t3 - t2
+        timers[2] += (t1 - t0) + (t4 - t3)
+        done += 1
+    return status, bad, done, rebuilds, n, nbr
+'''
+
+CONSTANTS = """\
+dt = c.dt
+char_vel = c.characteristic_velocity
+gravity = c.gravity
+lo = c.lo
+hi = c.hi
+periodic = c.periodic
+skin = c.skin
+"""
+
+MOVE_PLANES = """\
+for w in range(walls.plane_axis.shape[0]):
+    walls.plane_pos[w] += walls.plane_vel[w, walls.plane_axis[w]] * dt
+"""
+
+MODULE = '''\
+"""Generated by engine.kernels for ${combination}; do not edit."""
+from math import sqrt
+
+import numpy as np
+from numba import njit
+
+from engine.clock import now
+from engine.neighbor import max_displacement_check, rebuild
+${imports}
 
 
-def _unpack(obj: str, fields, names=None) -> str:
+${pair_forces}
+
+
+${wall_forces}
+
+
+${step_loop}
+'''
+
+
+# ---------------------------------------------------------------- filling the slots
+
+def _unpack(obj: str, fields) -> str:
     """Fields of a state object as locals. Numba (0.68, issues 5872/7135) loses writes made through a
     namedtuple's attribute inside a parallel loop; locals are safe everywhere."""
-    return "".join(f"    {name} = {obj}.{field}\n" for field, name in zip(fields, names or fields))
+    return "".join(f"{name} = {obj}.{name}\n" for name in fields)
 
 
-def _particle_head(indent: str) -> str:
-    return "".join(indent + ln + "\n" for ln in [
-        "xi0 = x[i, 0]", "xi1 = x[i, 1]", "xi2 = x[i, 2]",
-        "vix = v[i, 0]", "viy = v[i, 1]", "viz = v[i, 2]",
-        "wix = omega[i, 0]", "wiy = omega[i, 1]", "wiz = omega[i, 2]",
-        "ri = radius[i]", "mi = mass[i]", "ti = ptype[i]",
-        "fix = 0.0", "fiy = 0.0", "fiz = 0.0", "tix = 0.0", "tiy = 0.0", "tiz = 0.0"])
+def _law_call(c: Combination, law, wall: bool) -> str:
+    """The law's call with its parameter columns and history slots filled in."""
+    columns = c.parameter_columns()
+    offset = c.history_offsets().get(law.submodel, 0)
+    names = {p: f"pp[ti, tj, {columns[p]}]" for p in law.parameters}
+    names.update({f"h{k}": (f"wall_hist[i, w, {offset + k}]" if wall else f"pair_hist[k, {offset + k}]")
+                  for k in range(law.history)})
+    return (law.wall_call if wall else law.pair).format(**names) + "\n"
 
 
-def _particle_tail(indent: str) -> str:
-    return "".join(indent + ln + "\n" for ln in [
-        "f[i, 0] += fix", "f[i, 1] += fiy", "f[i, 2] += fiz",
-        "torque[i, 0] += tix", "torque[i, 1] += tiy", "torque[i, 2] += tiz"])
+def contact_code(c: Combination, wall: bool) -> str:
+    """The force of one pair (wall=False) or particle-wall (wall=True) contact, for the named laws only."""
+    tangential, rolling = c.law("tangential"), c.law("rolling")
+    cohesion = c.law("cohesion")
+    tangential_code = rolling_code = ""
+    if tangential is not None:
+        tangential_code = render(TANGENTIAL, damping="" if c.tangential_damping else "gt = 0.0",
+                                 slip=SLIP[wall] if "slip" in tangential.needs else "",
+                                 law=_law_call(c, tangential, wall), partner="" if wall else TANGENTIAL_PARTNER)
+    if rolling is not None:
+        rolling_code = render(ROLLING, spin=RELATIVE_SPIN[wall] if "relative_spin" in rolling.needs else "",
+                              law=_law_call(c, rolling, wall), partner="" if wall else ROLLING_PARTNER)
+    return render(CONTACT, normal=_law_call(c, c.law("normal"), wall),
+                  limit_force="fn = max(fn, 0.0)" if c.limit_force else "",
+                  cohesion=_law_call(c, cohesion, wall) if cohesion is not None else "",
+                  tangential=tangential_code, rolling=rolling_code, reaction=REACTION[wall])
+
+
+def _reset_history(c: Combination, wall: bool) -> str:
+    if c.history_width == 0:
+        return ""
+    return render(RESET_HISTORY, width=str(c.history_width),
+                  target="wall_hist[i, w, h]" if wall else "pair_hist[k, h]")
 
 
 def generate_source(c: Combination) -> str:
     """Python source of the compiled kernels for combination c."""
-    out = [f'"""Generated by engine.kernels for {c!r}; do not edit."""\n',
-           "from math import sqrt\n", "import numpy as np\n", "from numba import njit\n",
-           "from engine.clock import now\n", "from engine.neighbor import max_displacement_check, rebuild\n",
-           "from engine.contact_laws import LAWS\n\n\n"]
+    periodic = "".join(f"d{name} -= box[{a}] * np.rint(d{name} / box[{a}])\n"
+                       for a, name in enumerate("xyz") if c.periodic[a])
+    pair_forces = render(PAIR_FORCES, unpack=_unpack("s", FIELD_NAMES), particle_head=PARTICLE_HEAD,
+                         periodic_image=periodic, reset_history=_reset_history(c, False),
+                         contact=contact_code(c, False), particle_tail=PARTICLE_TAIL)
+    has_walls = c.planes or c.cylinders
+    wall_forces = ""
+    if has_walls:
+        contact, reset = contact_code(c, True), _reset_history(c, True)
+        wall_forces = render(
+            WALL_FORCES, unpack=_unpack("s", FIELD_NAMES), unpack_walls=_unpack("walls", WALL_FIELDS[:-1]),
+            particle_head=PARTICLE_HEAD, particle_tail=PARTICLE_TAIL,
+            planes=render(PLANE_CONTACTS, reset_history=reset, contact=contact) if c.planes else "",
+            cylinders=render(CYLINDER_CONTACTS, reset_history=reset, contact=contact) if c.cylinders else "")
+    clear = ("f[i, 0] = mass[i] * gravity[0]\nf[i, 1] = mass[i] * gravity[1]\nf[i, 2] = mass[i] * gravity[2]\n"
+             if c.gravity else "f[i, 0] = 0.0\nf[i, 1] = 0.0\nf[i, 2] = 0.0\n")
+    walls_call = "wall_forces(s, n, walls, pp, dt, char_vel)\n" if has_walls else ""
+    forces = render(FORCES, clear=clear, walls=walls_call)
+    step_loop = render(STEP_LOOP, constants=CONSTANTS, unpack=_unpack("s", FIELD_NAMES), forces=forces,
+                       move_planes=MOVE_PLANES if c.planes else "",
+                       forces_pairs=render(FORCES, clear=clear, walls=""), forces_walls=walls_call)
+    called = sorted({fn for law in c.laws() for fn in law.functions}, key=lambda fn: fn.__name__)
+    body = pair_forces + wall_forces + step_loop
+    if "slip_velocity(" in body:
+        from .contact_laws import slip_velocity
+        called.append(slip_velocity)
+    imports = "".join(f"from {fn.__module__} import {fn.__name__}\n" for fn in called if fn.__name__ + "(" in body)
+    return render(MODULE, combination=repr(c), imports=imports, pair_forces=pair_forces, wall_forces=wall_forces,
+                  step_loop=step_loop)
 
-    # ---- pair forces
-    s = ["@njit(cache=True, error_model=\"numpy\")\n",
-         "def pair_forces(s, n, nbr, pp, dt, char_vel, box):\n",
-         _unpack("s", FIELD_NAMES), _unpack("nbr", ("start", "j", "hist"), ("nbr_start", "nbr_j", "pair_hist")),
-         "    for i in range(n):\n", _particle_head(" " * 8),
-         "        for k in range(nbr_start[i], nbr_start[i + 1]):\n",
-         "            j = nbr_j[k]\n",
-         "            dx = xi0 - x[j, 0]\n", "            dy = xi1 - x[j, 1]\n", "            dz = xi2 - x[j, 2]\n"]
-    for a, name in enumerate("xyz"):
-        if c.periodic[a]:
-            s.append(f"            d{name} -= box[{a}] * np.rint(d{name} / box[{a}])\n")
-    s += ["            rsq = dx * dx + dy * dy + dz * dz\n",
-          "            rj = radius[j]\n", "            radsum = ri + rj\n",
-          "            if rsq >= radsum * radsum:\n", _reset_history(c, False, " " * 16),
-          "                continue\n",
-          "            r = sqrt(rsq)\n", "            enx = dx / r\n", "            eny = dy / r\n",
-          "            enz = dz / r\n", "            d = radsum - r\n",
-          "            mj = mass[j]\n", "            tj = ptype[j]\n",
-          "            meff = mi * mj / (mi + mj)\n", "            reff = ri * rj / radsum\n",
-          "            vrx = vix - v[j, 0]\n", "            vry = viy - v[j, 1]\n", "            vrz = viz - v[j, 2]\n",
-          "            vn = vrx * enx + vry * eny + vrz * enz\n",
-          _contact_block(c, False, " " * 12), _particle_tail(" " * 8), "\n\n"]
-    out += s
 
-    # ---- wall forces
-    if c.planes or c.cylinders:
-        s = ["@njit(cache=True, error_model=\"numpy\")\n",
-             "def wall_forces(s, n, walls, pp, dt, char_vel):\n",
-             _unpack("s", FIELD_NAMES), _unpack("walls", WALL_FIELDS),
-             "    wall_force = walls.force\n",
-             "    nplanes = plane_axis.shape[0]\n",
-             "    wall_force[:, :] = 0.0\n",
-             "    for i in range(n):\n", _particle_head(" " * 8),
-             "        reff = ri\n", "        meff = mi\n"]
-        if c.planes:
-            s += ["        for w in range(nplanes):\n",
-                  "            axis = plane_axis[w]\n",
-                  "            sep = x[i, axis] - plane_pos[w]\n",
-                  "            dist = abs(sep)\n",
-                  "            if dist >= ri:\n", _reset_history(c, True, " " * 16), "                continue\n",
-                  "            sign = 1.0 if sep >= 0.0 else -1.0\n",
-                  "            enx = sign if axis == 0 else 0.0\n",
-                  "            eny = sign if axis == 1 else 0.0\n",
-                  "            enz = sign if axis == 2 else 0.0\n",
-                  "            d = ri - dist\n", "            tj = plane_type[w]\n",
-                  "            vrx = vix - plane_vel[w, 0]\n", "            vry = viy - plane_vel[w, 1]\n",
-                  "            vrz = viz - plane_vel[w, 2]\n",
-                  "            vn = vrx * enx + vry * eny + vrz * enz\n",
-                  _contact_block(c, True, " " * 12)]
-        if c.cylinders:
-            s += ["        for q in range(cyl_radius.shape[0]):\n",
-                  "            w = nplanes + q\n",
-                  "            px = xi0 - cyl_center[q, 0]\n", "            py = xi1 - cyl_center[q, 1]\n",
-                  "            rho = sqrt(px * px + py * py)\n",
-                  "            if cyl_side[q] > 0:\n",
-                  "                dist = cyl_radius[q] - rho\n",
-                  "            else:\n",
-                  "                dist = rho - cyl_radius[q]\n",
-                  "            if dist >= ri or rho == 0.0:\n", _reset_history(c, True, " " * 16),
-                  "                continue\n",
-                  # en points from the wall to the particle: inward for an inside wall, outward outside
-                  "            enx = -cyl_side[q] * px / rho\n", "            eny = -cyl_side[q] * py / rho\n",
-                  "            enz = 0.0\n",
-                  "            d = ri - dist\n", "            tj = cyl_type[q]\n",
-                  "            vrx = vix\n", "            vry = viy\n", "            vrz = viz\n",
-                  "            vn = vrx * enx + vry * eny + vrz * enz\n",
-                  _contact_block(c, True, " " * 12)]
-        s += [_particle_tail(" " * 8), "\n\n"]
-        out += s
+def parameter_table(c: Combination, materials: dict, interactions: dict, ntypes: int):
+    """pp[ti, tj, column] for 0-based types ti, tj < ntypes (user types 1..ntypes; see seed 000 on
+    off-by-one), with the columns of `Combination.parameter_columns` (the parameters the named laws read).
 
-    # ---- forces of one step: clear, gravity, pairs, walls
-    clear = ("            f[i, 0] = mass[i] * gravity[0]\n            f[i, 1] = mass[i] * gravity[1]\n"
-             "            f[i, 2] = mass[i] * gravity[2]\n") if c.gravity else \
-        "            f[i, 0] = 0.0\n            f[i, 1] = 0.0\n            f[i, 2] = 0.0\n"
-    walls = "        wall_forces(s, n, walls, pp, dt, char_vel)\n" if (c.planes or c.cylinders) else ""
-    move_planes = ("        for w in range(walls.plane_axis.shape[0]):\n"
-                   "            walls.plane_pos[w] += walls.plane_vel[w, walls.plane_axis[w]] * dt\n") if c.planes else ""
-    args = "s, n, nbr, walls, pp, c, step0, nsteps, timers, lost"
-    unpack_constants = ("    dt = c.dt\n    char_vel = c.characteristic_velocity\n    gravity = c.gravity\n"
-                        "    lo = c.lo\n    hi = c.hi\n    periodic = c.periodic\n    skin = c.skin\n")
-    rebuild_call = "n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)\n"
-    unpack_state = "".join(f"            {name} = s.{name}\n" for name in FIELD_NAMES)
-    out += [
-        "@njit(cache=True, error_model=\"numpy\")\n",
-        "def setup(s, n, nbr, walls, pp, c, step, lost):\n",
-        "    \"\"\"Fresh neighbor list and forces for the current state (start of a run after the scene changed).\n"
-        "    Returns (particles kept, neighbor list).\"\"\"\n",
-        unpack_constants,
-        "    box = hi - lo\n",
-        "    " + rebuild_call,
-        unpack_state.replace("            ", "    "),
-        "    for i in range(n):\n", clear.replace("\n        ", "\n    ")[4:],
-        "        torque[i, 0] = 0.0\n        torque[i, 1] = 0.0\n        torque[i, 2] = 0.0\n",
-        "    pair_forces(s, n, nbr, pp, dt, char_vel, box)\n",
-        walls.replace("\n    ", "\n")[4:] if walls else "",
-        "    return n, nbr\n\n\n",
-        "@njit(cache=True, error_model=\"numpy\")\n",
-        f"def run_steps({args}):\n",
-        "    \"\"\"nsteps Velocity-Verlet steps (fix nve/sphere order) of the first n particles of state s. Returns\n"
-        "    (status, bad particle, steps done, rebuilds, particles kept, neighbor list); status 1 = non-finite\n"
-        "    position. timers += [neigh, pair, modify] in s.\"\"\"\n",
-        unpack_constants,
-        "    box = hi - lo\n",
-        "    half_skin_sq = 0.25 * skin * skin\n",
-        "    half_dt = 0.5 * dt\n",
-        "    status = 0\n    bad = -1\n    done = 0\n    rebuilds = 0\n",
-        "    for k_step in range(nsteps):\n",
-        "        step = step0 + k_step + 1\n",
-        "        t0 = now()\n",
-        unpack_state.replace("            ", "        "),
-        "        for i in range(n):\n",
-        "            for a in range(3):\n",
-        "                v[i, a] += half_dt * f[i, a] * inv_mass[i]\n",
-        "                x[i, a] += dt * v[i, a]\n",
-        "                omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]\n",
-        move_planes,
-        "        t1 = now()\n",
-        "        need, bad = max_displacement_check(x, x_build, half_skin_sq, n)\n",
-        "        if bad >= 0:\n            status = 1\n            break\n",
-        "        if need:\n",
-        "            " + rebuild_call.replace("\n            ", "\n                "),
-        "            rebuilds += 1\n",
-        "        t2 = now()\n",
-        unpack_state.replace("            ", "        "),
-        "        for i in range(n):\n", clear,
-        "            torque[i, 0] = 0.0\n            torque[i, 1] = 0.0\n            torque[i, 2] = 0.0\n",
-        "        pair_forces(s, n, nbr, pp, dt, char_vel, box)\n",
-        "        t3 = now()\n",
-        walls,
-        "        for i in range(n):\n",
-        "            for a in range(3):\n",
-        "                v[i, a] += half_dt * f[i, a] * inv_mass[i]\n",
-        "                omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]\n",
-        "        t4 = now()\n",
-        "        timers[0] += t2 - t1\n        timers[1] += t3 - t2\n        timers[2] += (t1 - t0) + (t4 - t3)\n",
-        "        done += 1\n",
-        "    return status, bad, done, rebuilds, n, nbr\n",
-    ]
-    text = "".join(out)
-    # import exactly the laws the code calls, nothing else
-    used = [law for law in LAWS if law + "(" in text]
-    return text.replace("LAWS\n", ", ".join(used) + "\n", 1)
+    Pairs without an interaction keep NaN in the columns that need one, so using one by mistake shows up as
+    non-finite values.
+    """
+    import numpy as np
+
+    columns = c.parameter_columns()
+    pp = np.full((ntypes, ntypes, len(columns)), np.nan)
+    for a in range(1, ntypes + 1):
+        for b in range(1, ntypes + 1):
+            if a not in materials or b not in materials:
+                continue
+            inter = interactions.get((min(a, b), max(a, b)))
+            for name, k in columns.items():
+                parameter = PARAMETERS[name]
+                if inter is not None or not parameter.needs_interaction:
+                    pp[a - 1, b - 1, k] = parameter.value(materials[a], materials[b], inter)
+    return pp
+
+
+# ---------------------------------------------------------------- building and caching
+
+_SOURCES = ("kernels.py", "models.py", "contact_laws.py", "neighbor.py", "clock.py", "state.py", "walls.py")
 
 
 def _engine_source_hash() -> str:
     digest = hashlib.sha256()
     here = Path(__file__).parent
-    for name in ("kernels.py", "contact_laws.py", "neighbor.py", "clock.py", "state.py", "walls.py"):
+    for name in _SOURCES:
         digest.update((here / name).read_bytes())
     return digest.hexdigest()
 

@@ -1,4 +1,4 @@
-"""Scene set-up helpers: particle insertion (lattice, seeded random packing) and material tables."""
+"""Scene set-up helpers: particle insertion (lattice, seeded random packing)."""
 from __future__ import annotations
 
 import math
@@ -6,9 +6,6 @@ import math
 import numpy as np
 from numba import njit
 
-from .contact_laws import effective_shear_modulus, effective_youngs_modulus, restitution_beta
-from .kernels import (N_PARAMS, P_BETA, P_COHESION, P_FRICTION, P_GSTAR, P_LOG_E, P_ROLLING_FRICTION,
-                      P_YSTAR)
 
 
 def region_contains(region: dict, points: np.ndarray, margin: np.ndarray) -> np.ndarray:
@@ -141,29 +138,3 @@ def random_packing(region: dict, radii: np.ndarray, seed: int, existing_x: np.nd
     return _place_spheres(np.ascontiguousarray(existing_x, dtype=np.float64).reshape(-1, 3),
                           np.ascontiguousarray(existing_r, dtype=np.float64), radii, candidates, shape, lo, hi,
                           center, float(region.get("radius", 0.0)), grid_lo, cell, ncell)
-
-
-def parameter_table(materials: dict, interactions: dict, ntypes: int) -> np.ndarray:
-    """pp[ti, tj, :] for 0-based types ti, tj < ntypes (user types 1..ntypes; see seed 000 on off-by-one).
-
-    Columns: Y* (Pa), G* (Pa), beta, ln(e), friction, rolling friction, cohesion energy density (J/m^3).
-    Pairs without an interaction stay NaN, so using one by mistake shows up as non-finite values.
-    """
-    pp = np.full((ntypes, ntypes, N_PARAMS), np.nan)
-    for a in range(1, ntypes + 1):
-        for b in range(1, ntypes + 1):
-            if a not in materials or b not in materials:
-                continue
-            ya, nua, _ = materials[a]
-            yb, nub, _ = materials[b]
-            pp[a - 1, b - 1, P_YSTAR] = effective_youngs_modulus(ya, nua, yb, nub)
-            pp[a - 1, b - 1, P_GSTAR] = effective_shear_modulus(ya, nua, yb, nub)
-            inter = interactions.get((min(a, b), max(a, b)))
-            if inter is None:
-                continue
-            pp[a - 1, b - 1, P_BETA] = restitution_beta(inter["restitution"])
-            pp[a - 1, b - 1, P_LOG_E] = math.log(inter["restitution"])
-            pp[a - 1, b - 1, P_FRICTION] = inter["friction"]
-            pp[a - 1, b - 1, P_ROLLING_FRICTION] = inter["rolling_friction"]
-            pp[a - 1, b - 1, P_COHESION] = inter["cohesion_energy_density"]
-    return pp

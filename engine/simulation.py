@@ -18,11 +18,12 @@ import numpy as np
 from . import memory
 from .contact_laws import effective_youngs_modulus
 from .errors import InputError, RunFailure, output_failure
-from .kernels import COHESION_MODELS, NORMAL_MODELS, ROLLING_MODELS, TANGENTIAL_MODELS, Combination, build_kernel
+from .kernels import (COHESION_MODELS, NORMAL_MODELS, ROLLING_MODELS, TANGENTIAL_MODELS, Combination, build_kernel,
+                      parameter_table)
 from .log import Log  # noqa: F401 - part of this module's interface (tests build a Simulation on a Log)
 from . import state as particle_state
 from .neighbor import NeighborList, empty_list, lost_record, overlap_statistics
-from .scene import lattice_points, parameter_table, random_packing, region_bounds
+from .scene import lattice_points, random_packing, region_bounds
 from .script import Fields
 from .walls import overlap_ratios, wall_set
 from .writers import CsvSeries, write_vtp
@@ -654,7 +655,7 @@ class Simulation:
         kernel = build_kernel(combo)
         self._fit_history(combo)
         self.check_timestep(fields.where)
-        pp = parameter_table(self.materials, self.interactions, max(self.materials))
+        pp = parameter_table(combo, self.materials, self.interactions, max(self.materials))
         gravity = self.gravity_vector()
         if self.wall_force.shape[0] != len(self.walls):
             self.wall_force = np.zeros((len(self.walls), 3))
