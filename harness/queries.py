@@ -292,6 +292,66 @@ class RunQuerySet(models.QuerySet):
                 .order_by("id").values_list("target__name", "testcase__path", "name", "testcase_hash", "id"))
         return {(t, path, name, content): pk for t, path, name, content, pk in rows}
 
+    def failing_since(self, runs) -> dict:
+        """For each failed or inconsistent run of ``runs``: since which build of its target on its machine
+        the run configuration (test case and run name) has failed or been inconsistent without interruption.
+
+        The history is that of ``history``: the builds of the target on the machine that ran the run
+        configuration, by commit date; per build its run (the one no newer content replaced, else the newest).
+        A run counts as bad when it failed (``harness.rules.effective_state``) or is inconsistent, unless a
+        reviewer overruled it; a successful, consistent (or overruled) run interrupts; a run not executed is
+        no evidence either way and is passed over. Returns ``{run id: {"commit", "committed_at", "build_id",
+        "run_id", "builds" (bad builds in the streak), "first" (the streak starts at the first recorded
+        build)}}``; one query for any number of runs, none when no run is bad.
+        """
+        from types import SimpleNamespace
+
+        from harness.rules import effective_state
+
+        def bad(r) -> bool | None:
+            if r.accepted:
+                return False
+            state = effective_state(r)
+            if state == "failed" or r.consistency == "inconsistent":
+                return True
+            return None if state in ("not_executed", "outdated") else False
+
+        wanted = [r for r in runs if bad(r)]
+        if not wanted:
+            return {}
+        keys = {(r.target_id, r.machine_id, r.testcase_id, r.name) for r in wanted}
+        fields = ("pk", "target_id", "machine_id", "testcase_id", "name", "build_id", "build__commit",
+                  "build__committed_at", "state", "replaced", "failure_reason", "finished", "consistency",
+                  "accepted")
+        rows = (self.filter(target_id__in={k[0] for k in keys}, machine_id__in={k[1] for k in keys},
+                            testcase_id__in={k[2] for k in keys}, name__in={k[3] for k in keys})
+                .with_accepted().order_by("build__committed_at", "build__started", "build_id", "replaced", "-id")
+                .values_list(*fields))
+        histories: dict = {}
+        for row in rows:
+            r = SimpleNamespace(**dict(zip(fields, row)))
+            builds = histories.setdefault((r.target_id, r.machine_id, r.testcase_id, r.name), {})
+            builds.setdefault(r.build_id, r)  # the build's first row: not replaced, newest
+        out = {}
+        for run in wanted:
+            history = list(histories.get((run.target_id, run.machine_id, run.testcase_id, run.name), {}).values())
+            position = next((i for i, r in enumerate(history) if r.build_id == run.build_id), None)
+            if position is None:
+                continue
+            start, count, i = position, 1, position - 1
+            while i >= 0:
+                verdict = bad(history[i])
+                if verdict is False:
+                    break
+                if verdict:
+                    start, count = i, count + 1
+                i -= 1
+            first = history[start]
+            out[run.pk] = {"commit": first.build__commit, "committed_at": first.build__committed_at,
+                           "build_id": first.build_id, "run_id": first.pk, "builds": count,
+                           "first": all(bad(r) is None for r in history[:start])}
+        return out
+
     def junit(self, machine_id=None, target_id=None):
         """Runs for a JUnit report (outdated results of older builds left out), optionally of one machine
         and target."""

@@ -72,6 +72,16 @@ def _page(request, queryset):
     return Paginator(queryset, LIST_PAGE_SIZE).get_page(params.page_number(request.GET))
 
 
+def _with_failing_since(page):
+    """The page's runs, each failed or inconsistent one with ``failing_since`` (RunQuerySet.failing_since:
+    the first build of the uninterrupted streak); one query for the page."""
+    page.object_list = list(page.object_list)
+    since = Run.objects.failing_since(page.object_list)
+    for run in page.object_list:
+        run.failing_since = since.get(run.pk)
+    return page
+
+
 def _plots_json(plot_list: list[dict]) -> JsonResponse:
     """Plots for plots.js (webfrontend.plots says what one holds); no NaN in the JSON (finite_or_none)."""
     response = JsonResponse({"plots": plot_list}, json_dumps_params={"allow_nan": False, "separators": (",", ":")})
@@ -118,7 +128,8 @@ def testcase_runs(request, testcase):
     found = _filters(request)
     runs = Run.objects.filter(testcase=case).search(**found["filters"])
     return render(request, "webfrontend/testcase.html", {
-        "testcase": case, "page": _page(request, _run_list(runs.listing())), **found})
+        "testcase": case, "page": _with_failing_since(_page(request, _run_list(runs.listing()))),
+        "show_failing_since": True, **found})
 
 
 def folder(request, machine_id, target_id, folder=""):
@@ -136,13 +147,13 @@ def folder(request, machine_id, target_id, folder=""):
         testcase = TestCase.objects.filter(path=folder).first()
         if testcase is None and not Run.objects.filter(machine=machine, target=target).below(folder).exists():
             raise Http404("no test cases in this folder")
-    page = _page(request, _run_list(runs.filter(testcase__path=whole.path).in_category(show).listing())) \
-        if whole.is_testcase else None
+    page = _with_failing_since(_page(request, _run_list(
+        runs.filter(testcase__path=whole.path).in_category(show).listing()))) if whole.is_testcase else None
     return render(request, "webfrontend/folder.html", {
         "machine": machine, "target": target, "build": build, "whole": whole, "mode": mode, "show": show,
         "children": [c for c in children if c.matches(show)], "page": page, "testcase": testcase,
         "categories": CONSISTENCY_CATEGORIES if mode == "consistency" else STATE_CATEGORIES,
-        "crumbs": presentation.breadcrumbs(whole.path), **found})
+        "crumbs": presentation.breadcrumbs(whole.path), "show_failing_since": True, **found})
 
 
 def run_detail(request, run_id):
@@ -153,7 +164,7 @@ def run_detail(request, run_id):
         "verdict": stored_verdict(run), "texts": files.texts(), "artifacts": files.artifacts(),
         "build_log": presentation.tail(run.build.log, settings.DASHBOARD_TEXT_LIMIT),
         "has_series": bool(run.series.all()), "expectations": presentation.expectation_rows(files),
-        "form": OverrideForm(run)})
+        "form": OverrideForm(run), "failing_since": Run.objects.failing_since([run]).get(run.pk)})
 
 
 def run_plots(request, run_id):
