@@ -25,7 +25,9 @@ pytestmark = [pytest.mark.browser,
                                  reason="needs Debian chromium at /usr/bin/chromium (apt-get install chromium)")]
 
 
-class BrowserTest(StaticLiveServerTestCase):
+class BrowserCase(StaticLiveServerTestCase):
+    """A live server over a filled store and a chromium page; the tests are in the subclasses."""
+
     host = "127.0.0.1"
 
     @classmethod
@@ -72,6 +74,9 @@ class BrowserTest(StaticLiveServerTestCase):
                                     ".every(b => b.dataset.drawn !== undefined)")
         self.page.screenshot(path=str(ARTIFACTS / name), full_page=True)
 
+
+
+class BrowserTest(BrowserCase):
     def test_browse_to_a_run_then_compare_two_runs(self):
         page, s = self.page, self.s
         page.goto(self.live_server_url + "/")
