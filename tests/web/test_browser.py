@@ -75,7 +75,6 @@ class BrowserCase(StaticLiveServerTestCase):
         self.page.screenshot(path=str(ARTIFACTS / name), full_page=True)
 
 
-
 class BrowserTest(BrowserCase):
     def test_browse_to_a_run_then_compare_two_runs(self):
         page, s = self.page, self.s
