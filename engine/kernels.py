@@ -21,12 +21,18 @@ import os
 import re
 import string
 import sys
+from collections import namedtuple
 from dataclasses import dataclass
 from pathlib import Path
 
 from .models import LAWS, PARAMETERS, SUBMODELS, choices
 from .state import FIELD_NAMES
 from .walls import WALL_FIELDS
+
+#: scalars and small arrays every step reads: dt (s), characteristic velocity (m/s, Hooke), gravity (m/s^2, 3),
+#: domain lo, hi (m, 3), periodic (3 booleans), skin (m). Types that compiled code receives live in modules of
+#: the kernel source hash (the disk cache pickles them by module and name).
+Constants = namedtuple("Constants", ["dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin"])
 
 NORMAL_MODELS = choices("normal")
 TANGENTIAL_MODELS = choices("tangential")

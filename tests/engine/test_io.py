@@ -9,6 +9,7 @@ import pytest
 from conftest import (domain, gravity, interaction, material, model, particle, plane, printer, read_csv, run,
                       timestep)
 from engine.kernels import Combination, generate_source
+from engine.quantities import overlaps
 from engine.simulation import Log, Simulation
 
 
@@ -92,7 +93,7 @@ def two_in_contact(tangential, rolling="none"):
 def test_no_history_allocated_without_a_history_submodel(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # the runs write thermo.csv
     sim = make_sim(two_in_contact("no_history"))
-    assert sim.overlaps()[0] == 1  # the pair is in contact ...
+    assert overlaps(sim)[0] == 1  # the pair is in contact ...
     assert sim.nbr.hist.nbytes == 0 and sim.state.wall_hist.nbytes == 0  # ... and stores nothing
     sim = make_sim(two_in_contact("history"))
     assert sim.nbr.hist.shape == (len(sim.nbr.j), 3) and np.any(sim.nbr.hist != 0)

@@ -1,0 +1,120 @@
+"""Quantities a script can ask for (thermo columns, print files, `get`): a registry, after LAMMPS' computes.
+
+A global quantity is a name and a function of the simulation; a per-particle quantity is ``NAME[ID]`` (e.g.
+``vz[1]``), a per-wall one ``wall_fNAME[WALL]`` (e.g. ``wall_fz[floor]``). A new quantity is one entry of
+`GLOBAL`. Everything is vectorised numpy over the particles, evaluated only at output steps.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError
+from .neighbor import overlap_statistics
+
+AXES = {"x": 0, "y": 1, "z": 2}
+#: overlaps above this fraction of the smaller radius are reported (issue 2)
+OVERLAP_WARN_RATIO = 0.1
+
+
+@dataclass(frozen=True)
+class Quantity:
+    unit: str
+    doc: str
+    value: object  # value(sim) -> int | float
+
+
+def _speed_sq(s):
+    return np.einsum("ij,ij->i", s.v, s.v)
+
+
+def overlaps(sim):
+    """(particle-particle contacts, contacts above 10 % overlap, max overlap / smaller radius)."""
+    if sim.lo is None or len(sim.nbr.start) != sim.n + 1:
+        return 0, 0, 0.0
+    return overlap_statistics(sim.state.x, sim.state.radius, sim.nbr.start, sim.nbr.j, sim.lo, sim.hi,
+                              sim.periodic, OVERLAP_WARN_RATIO)
+
+
+def _ke(sim):
+    s = sim.state
+    return float(0.5 * np.sum(s.mass * _speed_sq(s)))
+
+
+def _rke(sim):
+    s = sim.state
+    return float(0.5 * np.sum(0.4 * s.mass * s.radius ** 2 * np.einsum("ij,ij->i", s.omega, s.omega)))
+
+
+def _pe(sim):
+    return float(-np.sum(sim.state.mass * (sim.state.x @ sim.gravity_vector())))
+
+
+def _momentum(axis):
+    return lambda sim: float(np.sum(sim.state.mass * sim.state.v[:, axis]))
+
+
+def _com(axis):
+    def value(sim):
+        mass = sim.state.mass
+        return float(np.sum(mass * sim.state.x[:, axis]) / np.sum(mass)) if len(mass) else math.nan
+    return value
+
+
+GLOBAL = {
+    "step": Quantity("-", "time step number", lambda sim: sim.step),
+    "time": Quantity("s", "simulated time", lambda sim: sim.time),
+    "atoms": Quantity("-", "number of particles", lambda sim: sim.n),
+    "ke": Quantity("J", "translational kinetic energy, sum of m v^2 / 2", _ke),
+    "rke": Quantity("J", "rotational kinetic energy, sum of I w^2 / 2 with I = 0.4 m r^2", _rke),
+    "pe": Quantity("J", "gravitational potential energy, -sum of m x.g", _pe),
+    "energy": Quantity("J", "ke + rke + pe", lambda sim: _ke(sim) + _rke(sim) + _pe(sim)),
+    **{f"momentum_{a}": Quantity("kg m/s", f"total momentum along {a}", _momentum(k)) for a, k in AXES.items()},
+    **{f"com_{a}": Quantity("m", f"centre of mass, {a}", _com(k)) for a, k in AXES.items()},
+    "max_speed": Quantity("m/s", "largest particle speed",
+                          lambda sim: float(np.sqrt(np.max(_speed_sq(sim.state)))) if sim.n else 0.0),
+    "contacts": Quantity("-", "particle-particle contacts", lambda sim: overlaps(sim)[0]),
+    "max_overlap": Quantity("-", "largest overlap / smaller radius", lambda sim: overlaps(sim)[2]),
+}
+GLOBAL_QUANTITIES = tuple(GLOBAL)
+
+#: per particle: NAME[ID] -> (field of the state, component)
+PARTICLE = {"x": ("x", 0), "y": ("x", 1), "z": ("x", 2), "vx": ("v", 0), "vy": ("v", 1), "vz": ("v", 2),
+            "fx": ("f", 0), "fy": ("f", 1), "fz": ("f", 2), "omegax": ("omega", 0), "omegay": ("omega", 1),
+            "omegaz": ("omega", 2)}
+PARTICLE_QUANTITY = re.compile(r"^(%s)\[(\d+)\]$" % "|".join(PARTICLE))
+#: force the particles exert on a wall (N) at the last step, e.g. wall_fz[floor]
+WALL_QUANTITY = re.compile(r"^wall_f([xyz])\[([^\]]+)\]$")
+
+
+def known(name: str) -> bool:
+    return name in GLOBAL or PARTICLE_QUANTITY.match(name) is not None or WALL_QUANTITY.match(name) is not None
+
+
+def evaluate(sim, name: str):
+    """The value of a quantity now (NaN for a particle id that is not present)."""
+    m = WALL_QUANTITY.match(name)
+    if m:
+        names = [w["name"] for w in sim.walls]
+        if m.group(2) not in names:
+            raise InputError(f"quantity '{name}' names no wall '{m.group(2)}' (walls: {', '.join(names)})")
+        k = names.index(m.group(2))
+        return float(sim.wall_force[k, AXES[m.group(1)]]) if k < len(sim.wall_force) else 0.0
+    m = PARTICLE_QUANTITY.match(name)
+    if m:
+        where = np.nonzero(sim.state.pid == int(m.group(2)))[0]
+        if len(where) == 0:
+            return math.nan
+        field, component = PARTICLE[m.group(1)]
+        return float(getattr(sim.state, field)[where[0], component])
+    if name in GLOBAL:
+        return GLOBAL[name].value(sim)
+    raise KeyError(name)
+
+
+def wall_names(names) -> list:
+    """(quantity, wall name) of the per-wall quantities among names."""
+    return [(q, m.group(2)) for q in names for m in [WALL_QUANTITY.match(q)] if m]

@@ -1,0 +1,158 @@
+"""Restart files (.npz): everything needed to continue a scene bitwise, checked before use.
+
+A restart holds the domain, walls, particles (in memory order, each field of state.PARTICLE_FIELDS under its
+name), the neighbor list with its contact history, step and time. The compiled kernel does not check
+bounds, so a file whose arrays disagree must be refused as bad input before it reaches it.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from . import state as particle_state
+from .errors import InputError, output_failure
+from .neighbor import NeighborList
+from .script import Fields
+
+RESTART_FORMAT = 2
+#: restart file arrays of the neighbor list (the particle fields are stored under their names, state.py)
+NEIGHBOR_ARRAYS = {"nbr_start": "start", "nbr_j": "j", "pair_hist": "hist"}
+
+
+def write_restart(sim, path: str):
+    """Everything needed to continue bitwise: particles in memory order, neighbor list, contact history."""
+    if sim.lo is None:
+        raise InputError(f"restart {path}: nothing to write (no domain yet)")
+    try:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "wb") as handle:
+            np.savez(handle, format=RESTART_FORMAT, step=sim.step, time=sim.time,
+                     dt=np.nan if sim.dt is None else sim.dt, skin=sim.skin, lo=sim.lo, hi=sim.hi,
+                     periodic=sim.periodic, next_id=sim.next_id, dirty=sim.dirty,
+                     walls=json.dumps(sim.walls), plane_pos=sim.plane_pos, wall_force=sim.wall_force,
+                     **particle_state.as_arrays(sim.state),
+                     **{key: getattr(sim.nbr, name) for key, name in NEIGHBOR_ARRAYS.items()})
+    except OSError as exc:
+        raise output_failure("restart file", path, exc) from None
+    sim.log.info(f"wrote restart file {path} at step {sim.step}")
+
+def read_restart(sim, path: str, fields: Fields):
+    """Restore a restart file, after checking that it is one: a truncated, foreign or inconsistent file
+    must be bad input, never a crash, and never arrays whose sizes disagree reaching the compiled kernel
+    (which does not check bounds)."""
+    try:
+        data = _load_restart(path)
+    except OSError as exc:
+        raise fields.error("file", f"cannot read restart file {path}: {exc.strerror or exc}") from None
+    except Exception as exc:  # noqa: BLE001 - whatever a broken archive raises, the file is the problem
+        raise fields.error("file", f"{path} is not a readable restart file ({type(exc).__name__}: "
+                           f"{str(exc).splitlines()[0] if str(exc) else 'no detail'})") from None
+    if data.get("format") is None or data["format"].shape != () or data["format"].dtype.kind not in "iu":
+        raise fields.error("file", f"{path} is not a restart file of this engine (no format number)")
+    if int(data["format"]) != RESTART_FORMAT:
+        raise fields.error("file", f"{path} has restart format {int(data['format'])}, expected {RESTART_FORMAT}")
+    try:
+        walls = _check_restart(data)
+    except ValueError as exc:
+        raise fields.error("file", f"{path} is not a consistent restart file: {exc}") from None
+    for w in walls:
+        if w["type"] not in sim.materials:
+            raise fields.error("file", f"wall '{w['name']}' in {path} uses material type {w['type']} "
+                               "which this script does not define")
+    for t in set((data["ptype"] + 1).tolist()):
+        if t not in sim.materials:
+            raise fields.error("file", f"{path} holds particles of material type {t} which this script "
+                               "does not define")
+    sim.step = int(data["step"])
+    sim.time = float(data["time"])
+    if not math.isnan(float(data["dt"])):
+        sim.dt = float(data["dt"])
+    sim.skin = float(data["skin"])
+    sim.lo, sim.hi = data["lo"].copy(), data["hi"].copy()
+    sim.periodic = data["periodic"].copy()
+    sim.next_id = int(data["next_id"])
+    sim.walls = walls
+    sim.plane_pos = data["plane_pos"].copy()
+    sim.wall_force = data["wall_force"].copy()
+    sim.state = particle_state.from_arrays(data)
+    sim.nbr = NeighborList(**{name: np.ascontiguousarray(data[key]) for key, name in NEIGHBOR_ARRAYS.items()})
+    sim.dirty = bool(data["dirty"])
+    sim.log.info(f"read restart file {path}: step {sim.step}, {sim.n} particles")
+
+
+def _load_restart(path: str) -> dict:
+    """All arrays of a restart file (.npz), read eagerly so that a truncated member fails here."""
+    archive = np.load(path, allow_pickle=False)
+    if not isinstance(archive, np.lib.npyio.NpzFile):
+        raise ValueError("a single .npy array, not an .npz archive")
+    with archive:
+        return {key: archive[key] for key in archive.files}
+
+
+#: restart arrays: name -> (dtype kind, shape with "n" for the particle count)
+_RESTART_SHAPES = {
+    "x": ("f", ("n", 3)), "v": ("f", ("n", 3)), "f": ("f", ("n", 3)), "omega": ("f", ("n", 3)),
+    "torque": ("f", ("n", 3)), "x_build": ("f", ("n", 3)), "radius": ("f", ("n",)), "mass": ("f", ("n",)),
+    "inv_mass": ("f", ("n",)), "inv_inertia": ("f", ("n",)), "ptype": ("i", ("n",)), "pid": ("i", ("n",)),
+    "nbr_start": ("i", (None,)), "nbr_j": ("i", (None,)), "pair_hist": ("f", (None, None)),
+    "wall_hist": ("f", (None, None, None)), "step": ("i", ()), "time": ("f", ()), "dt": ("f", ()),
+    "skin": ("f", ()), "lo": ("f", (3,)), "hi": ("f", (3,)), "periodic": ("b", (3,)), "next_id": ("i", ()),
+    "dirty": ("b", ()), "walls": ("U", ()), "plane_pos": ("f", (None,)), "wall_force": ("f", (None, 3)),
+}
+
+
+def _check_restart(data: dict) -> list[dict]:
+    """ValueError naming the first inconsistency of a restart file's arrays; returns its walls."""
+    missing = sorted(set(_RESTART_SHAPES) - set(data))
+    if missing:
+        raise ValueError(f"missing {', '.join(missing)}")
+    n = data["pid"].shape[0] if data["pid"].ndim == 1 else -1
+    for key, (kind, shape) in _RESTART_SHAPES.items():
+        a = data[key]
+        want = tuple(n if d == "n" else d for d in shape)
+        if (a.dtype.kind != kind or a.ndim != len(want)
+                or any(w is not None and w != s for w, s in zip(want, a.shape))):
+            raise ValueError(f"array '{key}' has dtype {a.dtype} and shape {a.shape}, expected kind '{kind}' and "
+                             f"shape {tuple('N' if d == 'n' else ('*' if d is None else d) for d in shape)}")
+        if kind == "f" and key != "dt" and not np.all(np.isfinite(a)):  # dt is NaN when none was set
+            raise ValueError(f"array '{key}' holds non-finite values")
+    if data["wall_hist"].shape[0] not in (0, n) or (data["wall_hist"].shape[0] == 0 and data["wall_hist"].size):
+        raise ValueError(f"array 'wall_hist' has {data['wall_hist'].shape[0]} rows for {n} particles")
+    if data["wall_hist"].shape[0] != n:  # written without wall history: none, for every particle
+        data["wall_hist"] = np.zeros((n, 0, 0))
+    if np.any(data["radius"] <= 0) or np.any(data["mass"] <= 0) or np.any(data["ptype"] < 0):
+        raise ValueError("a particle with radius, mass or type out of range")
+    if int(data["step"]) < 0 or not np.all(data["hi"] > data["lo"]) or float(data["skin"]) <= 0:
+        raise ValueError("step, domain or skin out of range")
+    pid = data["pid"]
+    if len(np.unique(pid)) != n or (n and (pid.min() < 1 or pid.max() >= int(data["next_id"]))):
+        raise ValueError("particle ids are not unique or not below next_id")
+    start, j = data["nbr_start"], data["nbr_j"]
+    if (not 1 <= len(start) <= n + 1 or start[0] != 0 or np.any(np.diff(start) < 0) or start[-1] != len(j)
+            or (len(j) and (j.min() < 0 or j.max() >= n))):
+        raise ValueError("the neighbor list does not fit the particles")
+    try:
+        walls = json.loads(str(data["walls"]))
+    except ValueError as exc:
+        raise ValueError(f"the wall list is not JSON ({exc})") from None
+    if not isinstance(walls, list) or not all(_wall_ok(w) for w in walls):
+        raise ValueError("the wall list is not a list of wall definitions")
+    planes = sum(1 for w in walls if w["shape"] == "plane")
+    if data["plane_pos"].shape[0] != planes:
+        raise ValueError(f"{data['plane_pos'].shape[0]} plane positions for {planes} planes")
+    return walls
+
+
+def _wall_ok(w) -> bool:
+    def numbers(value, k):
+        return isinstance(value, list) and len(value) == k and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    if not (isinstance(w, dict) and isinstance(w.get("name"), str) and isinstance(w.get("type"), int)):
+        return False
+    if w.get("shape") == "plane":
+        return w.get("axis") in (0, 1, 2) and numbers([w.get("position")], 1) and numbers(w.get("velocity"), 3)
+    return (w.get("shape") == "cylinder" and numbers(w.get("center"), 2) and numbers([w.get("radius")], 1)
+            and w.get("side") in ("inside", "outside"))

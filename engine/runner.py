@@ -1,0 +1,178 @@
+"""The run loop: the `run` command around the compiled kernel.
+
+Between two steps at which Python must look at the state (an output, a time step re-check, the end of the
+run) the whole step loop runs inside compiled code (`engine.kernels`); Python only decides where the next stop
+is, checks the guards (`engine.guards`) and writes the output (`engine.output`).
+"""
+from __future__ import annotations
+
+import time
+import numpy as np
+
+from . import guards, quantities
+from . import state as particle_state
+from .errors import RunFailure
+from .kernels import Combination, Constants, build_kernel, parameter_table
+from .neighbor import empty_list, lost_record
+from .quantities import OVERLAP_WARN_RATIO
+from .script import Fields
+from .walls import wall_set
+
+
+def combination(sim) -> Combination:
+    """The compiled code this scene needs: its submodels, wall shapes, gravity and periodic axes."""
+    m = sim.model
+    return Combination(normal=m["normal"], tangential=m["tangential"], cohesion=m["cohesion"],
+                       rolling=m["rolling"], limit_force=m["limit_force"],
+                       tangential_damping=m["tangential_damping"],
+                       planes=any(w["shape"] == "plane" for w in sim.walls),
+                       cylinders=any(w["shape"] == "cylinder" for w in sim.walls),
+                       gravity=any(mod.acceleration() is not None for mod in sim.active_modifiers()),
+                       periodic=tuple(bool(p) for p in sim.periodic))
+
+
+def check_ready(sim, fields: Fields):
+    """Everything a run needs is there: domain, time step, contact model, interactions, the walls that
+    quantities name, periodic lengths of at least twice the cutoff."""
+    if sim.lo is None:
+        raise fields.error("steps", "cannot run: no domain (create a domain first)")
+    if sim.dt is None:
+        raise fields.error("steps", "cannot run: no time step (set property timestep first)")
+    if sim.model is None:
+        raise fields.error("steps", "cannot run: no contact model (create a contact_model first)")
+    used = sorted(set((sim.state.ptype + 1).tolist()) | {w["type"] for w in sim.walls})
+    for a in used:
+        for b in used:
+            if a <= b and (a, b) not in sim.interactions:
+                raise fields.error("steps", f"cannot run: no interaction for material types {a} and {b} "
+                                   "(create an interaction)")
+    names = {w["name"] for w in sim.walls}
+    requested = list(sim.output.thermo_columns) + [q for mod in sim.active_modifiers() for q in mod.quantities()]
+    for q, wall in quantities.wall_names(requested):
+        if wall not in names:
+            raise fields.error("steps", f"cannot run: quantity '{q}' names no wall '{wall}' "
+                               f"(walls: {', '.join(sorted(names)) or 'none'})")
+    if sim.n:
+        cutoff = 2 * float(sim.state.radius.max()) + sim.skin
+        for a in range(3):
+            if sim.periodic[a] and sim.hi[a] - sim.lo[a] < 2 * cutoff:
+                raise fields.error("steps", f"cannot run: periodic length along {'xyz'[a]} must be at least "
+                                   f"twice the neighbor cutoff ({2 * cutoff:g} m)")
+
+
+def fit_history(sim, combo: Combination):
+    """History arrays sized for this combination: width 0 (nothing stored) unless a submodel needs it."""
+    width = combo.history_width
+    nbr = sim.nbr
+    if len(nbr.start) > sim.n + 1:  # stale list after particles vanished: start afresh
+        nbr = empty_list(width)
+    if nbr.hist.shape != (len(nbr.j) if width else 0, width):
+        nbr = nbr._replace(hist=np.zeros((len(nbr.j) if width else 0, width)))
+    sim.nbr = nbr
+    sim.state = particle_state.fit_wall_history(sim.state, len(sim.walls), width)
+
+
+def next_stop(sim, end: int) -> int:
+    """The next step at which Python looks at the state: an output, a time step re-check, or the end."""
+    stop = end
+    for every in sim.output.every(sim.active_modifiers()) + ([sim.timestep_every] if sim.timestep_every else []):
+        stop = min(stop, (sim.step // every + 1) * every)
+    return stop
+
+
+def run(sim, fields: Fields):
+    """The `run` command: `steps` time steps."""
+    steps = fields.integer("steps", required=True, minimum=0)
+    check_ready(sim, fields)
+    combo = combination(sim)
+    t0 = time.perf_counter()
+    kernel = build_kernel(combo)
+    fit_history(sim, combo)
+    guards.check_timestep(sim, fields.where)
+    pp = parameter_table(combo, sim.materials, sim.interactions, max(sim.materials))
+    if sim.wall_force.shape[0] != len(sim.walls):
+        sim.wall_force = np.zeros((len(sim.walls), 3))
+    walls = wall_set(sim.walls, sim.plane_pos, sim.wall_force)
+    constants = Constants(dt=sim.dt, characteristic_velocity=sim.model["characteristic_velocity"],
+                          gravity=sim.gravity_vector(), lo=sim.lo, hi=sim.hi, periodic=sim.periodic, skin=sim.skin)
+    started_with = sim.n
+    created = sim.dirty
+    if sim.dirty:
+        lost = lost_record(sim.n)
+        n, sim.nbr = kernel.setup(sim.state, sim.n, sim.nbr, walls, pp, constants, sim.step, lost)
+        sim.state = particle_state.trimmed(sim.state, n)
+        guards.report_lost(sim, lost, fields.where, started_with)
+        sim.dirty = False
+    # a zero-step call compiles run_steps (or loads it from the disk cache) outside the timed loop
+    kernel.run_steps(sim.state, sim.n, sim.nbr, walls, pp, constants, sim.step, 0, np.zeros(3), lost_record(0))
+    # the overlap check between chunks is compiled too: not inside the timed loop
+    _, n_large, worst = quantities.overlaps(sim)
+    sim.timing["compile"] += time.perf_counter() - t0  # first call of a kernel compiles or loads it
+    overlap_warned = False
+    max_overlap = worst
+    if created:
+        # particles created (or restored) overlapping: the run would start with a violent push apart; say
+        # so as the run-time check does (that one only looks after the first chunk of steps)
+        if n_large:
+            sim.log.warning(f"step {sim.step}: {n_large} contact(s) overlap more than "
+                            f"{OVERLAP_WARN_RATIO:.0%} of the smaller radius (max {worst:.1%}) at the start "
+                            "of the run")
+        n_wall, worst_wall = guards.wall_overlaps(sim)
+        if n_wall:
+            sim.log.warning(f"step {sim.step}: {n_wall} particle-wall contact(s) overlap more than "
+                            f"{OVERLAP_WARN_RATIO:.0%} of the radius (max {worst_wall:.1%}) at the start of "
+                            "the run")
+    start_wall = time.perf_counter()
+    start_cpu = time.process_time()  # CPU seconds too: on a shared machine wall time overstates the cost
+    start_step, start_time = sim.step, sim.time
+    timers = np.zeros(3)
+    particle_steps = 0
+    rebuilds = 0
+    sim.output.where = fields.where
+    sim.output.write(sim, start=True)
+    timestep_warned: set = set()
+    end = start_step + steps
+    sim.output.end_step = end
+    while sim.step < end:
+        stop = next_stop(sim, end)
+        n = sim.n
+        lost = lost_record(n)
+        status, bad, done, rebuilt, kept, sim.nbr = kernel.run_steps(
+            sim.state, n, sim.nbr, walls, pp, constants, sim.step, stop - sim.step, timers, lost)
+        sim.state = particle_state.trimmed(sim.state, kept)
+        particle_steps += done * n
+        rebuilds += rebuilt
+        sim.step += done
+        sim.time = start_time + (sim.step - start_step) * sim.dt
+        if status == 1:
+            sim.step += 1
+            raise RunFailure(f"{fields.where}: non-finite position of particle {int(sim.state.pid[bad])} at "
+                             f"step {sim.step}")
+        guards.report_lost(sim, lost, fields.where, started_with)
+        guards.check_finite(sim, fields.where)
+        _, n_large, worst = quantities.overlaps(sim)
+        max_overlap = max(max_overlap, worst)
+        if n_large and not overlap_warned:
+            overlap_warned = True
+            sim.log.warning(f"step {sim.step}: {n_large} contact(s) overlap more than "
+                            f"{OVERLAP_WARN_RATIO:.0%} of the smaller radius (max {worst:.1%})")
+        if sim.timestep_every and sim.step % sim.timestep_every == 0:
+            guards.recheck_timestep(sim, fields.where, timestep_warned)
+        sim.output.write(sim, start=False)
+    total = time.perf_counter() - start_wall
+    cpu = time.process_time() - start_cpu
+    t = sim.timing
+    t["neigh"] += timers[0]
+    t["pair"] += timers[1]
+    t["modify"] += timers[2]
+    t["total"] += total
+    t["cpu"] += cpu
+    t["steps"] += steps
+    t["particles"] = sim.n
+    t["particle_steps"] += particle_steps
+    rate = particle_steps / total if total > 0 else 0.0
+    sim.log.info(f"Loop time of {total:.6g} s for {steps} steps with {sim.n} particles "
+                 f"({rate:.4g} particle-steps/s); pair {timers[1]:.4g} s, neigh {timers[0]:.4g} s "
+                 f"({rebuilds} rebuilds), modify {timers[2]:.4g} s; max overlap {max_overlap:.2%} of radius; "
+                 f"particles lost so far {sim.lost_total}; cpu {cpu:.6g} s "
+                 f"({particle_steps / cpu if cpu > 0 else 0.0:.4g} particle-steps per cpu second)")
