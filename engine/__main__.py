@@ -14,10 +14,10 @@ import traceback
 from .errors import InputError, RunFailure
 from .log import Log, stderr_line
 
-USAGE = "usage: dem -in SCRIPT [-var NAME VALUE]... [-log FILE]"
+USAGE = "usage: dem -in SCRIPT [-var NAME VALUE]... [-log FILE] [-threads N]"
 
 HELP = f"""{USAGE}
-       python -m engine -in SCRIPT [-var NAME VALUE]... [-log FILE]
+       python -m engine -in SCRIPT [-var NAME VALUE]... [-log FILE] [-threads N]
 
 Run a DEM scene script (a JSON list of commands: create, get, set, fix, unfix, run) in the current folder.
 
@@ -25,6 +25,8 @@ options:
   -in, -i SCRIPT        the scene script (JSON, UTF-8)
   -var, -v NAME VALUE   fill ${{NAME}} in the script with VALUE (repeatable)
   -log, -l FILE         the log file (default log.dem); also echoed to stdout
+  -threads, -t N        threads of the compiled loops (default: NUMBA_NUM_THREADS, else every core); the
+                        results are bitwise the same for every N
   -h, --help            show this text and exit
 
 outputs (current folder): the log, thermo.csv, print files, VTK dumps, restart files, timing.json
@@ -36,8 +38,8 @@ A failure is one line 'ERROR: ...' on stderr and the last line of the log. See e
 
 
 def parse_args(argv):
-    """(script, log, variables), or None when help was asked for; ValueError on a bad command line."""
-    script, log, variables = None, "log.dem", {}
+    """(script, log, variables, threads), or None when help was asked for; ValueError on a bad command line."""
+    script, log, variables, threads = None, "log.dem", {}, None
     i = 0
     while i < len(argv):
         flag = argv[i]
@@ -49,6 +51,14 @@ def parse_args(argv):
         elif flag in ("-log", "-l") and i + 1 < len(argv):
             log = argv[i + 1]
             i += 2
+        elif flag in ("-threads", "-t") and i + 1 < len(argv):
+            try:
+                threads = int(argv[i + 1])
+            except ValueError:
+                threads = 0
+            if not 1 <= threads <= 4096:
+                raise ValueError(f"-threads needs a whole number from 1 to 4096, got '{argv[i + 1]}' ({USAGE})")
+            i += 2
         elif flag in ("-var", "-v") and i + 2 < len(argv):
             variables[argv[i + 1]] = argv[i + 2]
             i += 3
@@ -56,7 +66,7 @@ def parse_args(argv):
             raise ValueError(f"bad command line argument '{flag}' ({USAGE})")
     if script is None:
         raise ValueError(f"no input script ({USAGE})")
-    return script, log, variables
+    return script, log, variables, threads
 
 
 def _unexpected(exc: BaseException) -> tuple[int, str]:
@@ -81,14 +91,18 @@ def _unexpected(exc: BaseException) -> tuple[int, str]:
                f"{f' (at {where})' if where else ''}; please report it with the script")
 
 
-def run(script: str, log_path: str | None, variables: dict, echo: bool = True) -> int:
-    """Run a script in the current folder; returns the exit code."""
+def run(script: str, log_path: str | None, variables: dict, threads: int | None = None, echo: bool = True) -> int:
+    """Run a script in the current folder with `threads` threads (None: NUMBA_NUM_THREADS or every core);
+    returns the exit code."""
     log = sim = None
     code = 0
     message = None
     where = script  # the command being executed, for messages of unexpected failures
     try:
         log = Log(log_path, echo=echo)
+        from . import threads as thread_pool
+
+        thread_pool.configure(threads)
         import numpy as np
 
         from .script import load_script, substitute
@@ -97,7 +111,7 @@ def run(script: str, log_path: str | None, variables: dict, echo: bool = True) -
         # the guards report non-finite values with step and particle; numpy's own overflow warnings would
         # only add lines to stderr
         np.seterr(all="ignore")
-        sim = Simulation(log)
+        sim = Simulation(log, threads=threads)
         commands = load_script(script, variables)
         for index, raw in enumerate(commands, start=1):
             where = f"{script}: command {index}"

@@ -77,6 +77,19 @@ class Combination:
                 width += law.history
         return offsets
 
+    def reaction_columns(self) -> dict:
+        """What a pair leaves for its partner j: the force (3 columns) and, per submodel that turns j, its torque
+        contribution (3 columns) -> first column in the neighbor list's `reaction` rows."""
+        columns = {"force": 0}
+        for kind in ("tangential", "rolling"):
+            if self.law(kind) is not None:
+                columns[kind] = 3 * len(columns)
+        return columns
+
+    @property
+    def reaction_width(self) -> int:
+        return 3 * len(self.reaction_columns())
+
     @property
     def history_width(self) -> int:
         """Doubles stored per contact (3 for the shear displacement, 3 for the EPSD2 rolling torque)."""
@@ -145,7 +158,7 @@ tiy += cri * tqy
 tiz += cri * tqz
 ${partner}
 """
-TANGENTIAL_PARTNER = "torque[j, 0] += crj * tqx\ntorque[j, 1] += crj * tqy\ntorque[j, 2] += crj * tqz\n"
+TANGENTIAL_PARTNER = "reaction[k, ${o}] = crj * tqx\nreaction[k, ${o1}] = crj * tqy\nreaction[k, ${o2}] = crj * tqz\n"
 
 RELATIVE_SPIN = {False: "wrelx = wix - omega[j, 0]\nwrely = wiy - omega[j, 1]\nwrelz = wiz - omega[j, 2]\n",
                  True: "wrelx = wix\nwrely = wiy\nwrelz = wiz\n"}
@@ -157,11 +170,12 @@ tiy -= rty
 tiz -= rtz
 ${partner}
 """
-ROLLING_PARTNER = "torque[j, 0] += rtx\ntorque[j, 1] += rty\ntorque[j, 2] += rtz\n"
+ROLLING_PARTNER = "reaction[k, ${o}] = rtx\nreaction[k, ${o1}] = rty\nreaction[k, ${o2}] = rtz\n"
 
-#: j takes the opposite force (Newton's third law, half list); a wall too: the force users can print
-REACTION = {False: "f[j, 0] -= fx\nf[j, 1] -= fy\nf[j, 2] -= fz\n",
-            True: "wall_force[w, 0] -= fx\nwall_force[w, 1] -= fy\nwall_force[w, 2] -= fz\n"}
+#: j takes the opposite force (Newton's third law): the pair leaves it in its row of `reaction` and j adds it up
+#: in the particle pass; a wall takes it too (the force users can print), collected at the last step of a chunk
+REACTION = {False: "reaction[k, 0] = fx\nreaction[k, 1] = fy\nreaction[k, 2] = fz\n",
+            True: "if record:\n    wall_part[i, w, 0] = fx\n    wall_part[i, w, 1] = fy\n    wall_part[i, w, 2] = fz\n"}
 
 PARTICLE_HEAD = """\
 xi0 = x[i, 0]
@@ -183,27 +197,24 @@ tix = 0.0
 tiy = 0.0
 tiz = 0.0
 """
-PARTICLE_TAIL = """\
-f[i, 0] += fix
-f[i, 1] += fiy
-f[i, 2] += fiz
-torque[i, 0] += tix
-torque[i, 1] += tiy
-torque[i, 2] += tiz
-"""
 
 #: contact history is reset as soon as a contact opens (physically clean; see engine/README.md)
 RESET_HISTORY = "for h in range(${width}):\n    ${target} = 0.0\n"
 
+#: pass 1 of a force evaluation: each listed pair once, by its first particle i (i < j). i's own sum goes into
+#: f[i] and torque[i]; what j takes stays in the pair's row of `reaction` (touch[k] = 1 if in contact). Every
+#: iteration writes only rows of its own particle and its own pairs: no two threads write the same memory.
 PAIR_FORCES = '''\
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", parallel=PARALLEL)
 def pair_forces(s, n, nbr, pp, dt, char_vel, box):
-    """Contact forces of the listed pairs (half list: each pair once, j takes -F)."""
+    """Contact forces of the listed pairs (half list: each pair once, j's share left in nbr.reaction)."""
     ${unpack}
     nbr_start = nbr.start
     nbr_j = nbr.j
     pair_hist = nbr.hist
-    for i in range(n):
+    touch = nbr.touch
+    reaction = nbr.reaction
+    for i in prange(n):
         ${particle_head}
         for k in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_j[k]
@@ -216,7 +227,9 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box):
             radsum = ri + rj
             if rsq >= radsum * radsum:
                 ${reset_history}
+                touch[k] = 0
                 continue
+            touch[k] = 1
             r = sqrt(rsq)
             enx = dx / r
             eny = dy / r
@@ -231,7 +244,12 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box):
             vrz = viz - v[j, 2]
             vn = vrx * enx + vry * eny + vrz * enz
             ${contact}
-        ${particle_tail}
+        f[i, 0] = fix
+        f[i, 1] = fiy
+        f[i, 2] = fiz
+        torque[i, 0] = tix
+        torque[i, 1] = tiy
+        torque[i, 2] = tiz
 '''
 
 #: a wall has infinite radius and mass (R* = r_i, m* = m_i), its type's material; en points from the wall to
@@ -281,34 +299,104 @@ for q in range(cyl_radius.shape[0]):
     vn = vrx * enx + vry * eny + vrz * enz
     ${contact}
 """
+WALLS = """\
+${particle_head}
+reff = ri
+meff = mi
+${planes}
+${cylinders}
+f[i, 0] += fix
+f[i, 1] += fiy
+f[i, 2] += fiz
+torque[i, 0] += tix
+torque[i, 1] += tiy
+torque[i, 2] += tiz
+"""
 
-WALL_FORCES = '''\
-@njit(cache=True, error_model="numpy")
-def wall_forces(s, n, walls, pp, dt, char_vel):
-    """Contact forces of every particle with every wall; walls.force: the force on each wall."""
+#: fix nve/sphere: half kick of v and omega (I = 0.4 m r^2), drift; then the neighbor check (moved more than
+#: skin/2: rebuild; a non-finite position fails every comparison: the run stops naming the particle)
+DRIFT = """\
+for a in range(3):
+    v[i, a] += half_dt * f[i, a] * inv_mass[i]
+    x[i, a] += dt * v[i, a]
+    omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]
+dx = x[i, 0] - x_build[i, 0]
+dy = x[i, 1] - x_build[i, 1]
+dz = x[i, 2] - x_build[i, 2]
+d2 = dx * dx + dy * dy + dz * dz
+if d2 > half_skin_sq:
+    need += 1
+elif not d2 <= half_skin_sq:
+    bad = min(bad, i)
+"""
+
+#: pass 2 of a force evaluation, per particle: gravity (F = m g, the first force), minus what the pairs (i, p)
+#: left for p in `reaction` - added in increasing i, exactly the order a serial half-list loop would have
+#: used - plus p's own pair sum, then walls, then the second half kick and (but at a chunk's last step) the
+#: next step's first half kick and drift. Returns (particles beyond skin/2, first non-finite position or n).
+PARTICLE_PASS = '''\
+@njit(cache=True, error_model="numpy", parallel=PARALLEL)
+def particle_pass(s, n, nbr, walls, pp, dt, char_vel, gravity, kick, drift, record, wall_part, half_skin_sq):
+    """Forces from the pair rows, walls, integration; see the template in engine.kernels."""
     ${unpack}
     ${unpack_walls}
-    wall_force = walls.force
-    nplanes = plane_axis.shape[0]
-    wall_force[:, :] = 0.0
-    for i in range(n):
-        ${particle_head}
-        reff = ri
-        meff = mi
-        ${planes}
-        ${cylinders}
-        ${particle_tail}
+    rstart = nbr.rstart
+    rk = nbr.rk
+    touch = nbr.touch
+    reaction = nbr.reaction
+    half_dt = 0.5 * dt
+    need = 0
+    bad = n
+    for i in prange(n):
+        ${clear}
+        gtx = 0.0
+        gty = 0.0
+        gtz = 0.0
+        for q in range(rstart[i], rstart[i + 1]):
+            k = rk[q]
+            if touch[k]:
+                gfx -= reaction[k, 0]
+                gfy -= reaction[k, 1]
+                gfz -= reaction[k, 2]
+                ${gather_torque}
+        f[i, 0] = gfx + f[i, 0]
+        f[i, 1] = gfy + f[i, 1]
+        f[i, 2] = gfz + f[i, 2]
+        torque[i, 0] = gtx + torque[i, 0]
+        torque[i, 1] = gty + torque[i, 1]
+        torque[i, 2] = gtz + torque[i, 2]
+        ${walls}
+        if kick:
+            for a in range(3):
+                v[i, a] += half_dt * f[i, a] * inv_mass[i]
+                omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]
+        if drift:
+            ${drift}
+    return need, bad
+
+
+@njit(cache=True, error_model="numpy", parallel=PARALLEL)
+def drift_pass(s, n, dt, half_skin_sq):
+    """The first half kick and drift of a chunk's first step. Returns (beyond skin/2, first bad or n)."""
+    ${unpack}
+    half_dt = 0.5 * dt
+    need = 0
+    bad = n
+    for i in prange(n):
+        ${drift}
+    return need, bad
 '''
 
-#: clear forces (gravity is the first force: F = m g), then pairs, then walls
-FORCES = """\
-for i in range(n):
-    ${clear}
-    torque[i, 0] = 0.0
-    torque[i, 1] = 0.0
-    torque[i, 2] = 0.0
-pair_forces(s, n, nbr, pp, dt, char_vel, box)
-${walls}
+#: the force the particles exert on each wall: the contributions of the particles in increasing index (the
+#: order of a serial loop), only at steps where Python reads it
+WALL_FORCE_SUM = """\
+if record:
+    wall_force = walls.force
+    wall_force[:, :] = 0.0
+    for i in range(n):
+        for w in range(wall_part.shape[1]):
+            for a in range(3):
+                wall_force[w, a] -= wall_part[i, w, a]
 """
 
 STEP_LOOP = '''\
@@ -319,8 +407,11 @@ def setup(s, n, nbr, walls, pp, c, step, lost):
     ${constants}
     box = hi - lo
     n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)
-    ${unpack}
-    ${forces}
+    pair_forces(s, n, nbr, pp, dt, char_vel, box)
+    record = True
+    wall_part = np.zeros((n, ${nwalls}, 3))
+    particle_pass(s, n, nbr, walls, pp, dt, char_vel, gravity, False, False, record, wall_part, 0.0)
+    ${wall_force_sum}
     return n, nbr
 
 
@@ -330,44 +421,47 @@ def run_steps(s, n, nbr, walls, pp, c, step0, nsteps, timers, lost):
     (status, bad particle, steps done, rebuilds, particles kept, neighbor list); status 1 = non-finite
     position. timers += [neigh, pair, modify] in s."""
     ${constants}
-    ${unpack}
     box = hi - lo
     half_skin_sq = 0.25 * skin * skin
-    half_dt = 0.5 * dt
     status = 0
     bad = -1
     done = 0
     rebuilds = 0
+    if nsteps == 0:
+        return status, bad, done, rebuilds, n, nbr
+    t0 = now()
+    need, first_bad = drift_pass(s, n, dt, half_skin_sq)
+    neigh = 0.0
+    pair = 0.0
+    modify = now() - t0
     for k_step in range(nsteps):
         step = step0 + k_step + 1
         t0 = now()
-        for i in range(n):
-            for a in range(3):
-                v[i, a] += half_dt * f[i, a] * inv_mass[i]
-                x[i, a] += dt * v[i, a]
-                omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]
         ${move_planes}
-        t1 = now()
-        need, bad = max_displacement_check(x, x_build, half_skin_sq, n)
-        if bad >= 0:
+        if first_bad < n:
             status = 1
+            bad = first_bad
             break
-        if need:
+        t1 = now()
+        if need > 0:
             n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)
             rebuilds += 1
         t2 = now()
-        ${forces_pairs}
+        pair_forces(s, n, nbr, pp, dt, char_vel, box)
         t3 = now()
-        ${forces_walls}
-        for i in range(n):
-            for a in range(3):
-                v[i, a] += half_dt * f[i, a] * inv_mass[i]
-                omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]
+        record = k_step == nsteps - 1
+        wall_part = np.zeros((n if record else 0, ${nwalls}, 3))
+        need, first_bad = particle_pass(s, n, nbr, walls, pp, dt, char_vel, gravity, True, not record, record,
+                                        wall_part, half_skin_sq)
+        ${wall_force_sum}
         t4 = now()
-        timers[0] += t2 - t1
-        timers[1] += t3 - t2
-        timers[2] += (t1 - t0) + (t4 - t3)
+        neigh += t2 - t1
+        pair += t3 - t2
+        modify += (t1 - t0) + (t4 - t3)
         done += 1
+    timers[0] += neigh
+    timers[1] += pair
+    timers[2] += modify
     return status, bad, done, rebuilds, n, nbr
 '''
 
@@ -391,17 +485,17 @@ MODULE = '''\
 from math import sqrt
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from engine.clock import now
-from engine.neighbor import max_displacement_check, rebuild
+from engine.neighbor import PARALLEL, rebuild
 ${imports}
 
 
 ${pair_forces}
 
 
-${wall_forces}
+${particle_pass}
 
 
 ${step_loop}
@@ -430,14 +524,20 @@ def contact_code(c: Combination, wall: bool) -> str:
     """The force of one pair (wall=False) or particle-wall (wall=True) contact, for the named laws only."""
     tangential, rolling = c.law("tangential"), c.law("rolling")
     cohesion = c.law("cohesion")
+    columns = c.reaction_columns()
     tangential_code = rolling_code = ""
+
+    def partner(template, submodel):
+        o = columns[submodel]
+        return "" if wall else render(template, o=str(o), o1=str(o + 1), o2=str(o + 2))
+
     if tangential is not None:
         tangential_code = render(TANGENTIAL, damping="" if c.tangential_damping else "gt = 0.0",
                                  slip=SLIP[wall] if "slip" in tangential.needs else "",
-                                 law=_law_call(c, tangential, wall), partner="" if wall else TANGENTIAL_PARTNER)
+                                 law=_law_call(c, tangential, wall), partner=partner(TANGENTIAL_PARTNER, "tangential"))
     if rolling is not None:
         rolling_code = render(ROLLING, spin=RELATIVE_SPIN[wall] if "relative_spin" in rolling.needs else "",
-                              law=_law_call(c, rolling, wall), partner="" if wall else ROLLING_PARTNER)
+                              law=_law_call(c, rolling, wall), partner=partner(ROLLING_PARTNER, "rolling"))
     return render(CONTACT, normal=_law_call(c, c.law("normal"), wall),
                   limit_force="fn = max(fn, 0.0)" if c.limit_force else "",
                   cohesion=_law_call(c, cohesion, wall) if cohesion is not None else "",
@@ -455,33 +555,34 @@ def generate_source(c: Combination) -> str:
     """Python source of the compiled kernels for combination c."""
     periodic = "".join(f"d{name} -= box[{a}] * np.rint(d{name} / box[{a}])\n"
                        for a, name in enumerate("xyz") if c.periodic[a])
-    pair_forces = render(PAIR_FORCES, unpack=_unpack("s", FIELD_NAMES), particle_head=PARTICLE_HEAD,
-                         periodic_image=periodic, reset_history=_reset_history(c, False),
-                         contact=contact_code(c, False), particle_tail=PARTICLE_TAIL)
+    unpack = _unpack("s", FIELD_NAMES)
+    pair_forces = render(PAIR_FORCES, unpack=unpack, particle_head=PARTICLE_HEAD, periodic_image=periodic,
+                         reset_history=_reset_history(c, False), contact=contact_code(c, False))
     has_walls = c.planes or c.cylinders
-    wall_forces = ""
+    walls = unpack_walls = ""
     if has_walls:
         contact, reset = contact_code(c, True), _reset_history(c, True)
-        wall_forces = render(
-            WALL_FORCES, unpack=_unpack("s", FIELD_NAMES), unpack_walls=_unpack("walls", WALL_FIELDS[:-1]),
-            particle_head=PARTICLE_HEAD, particle_tail=PARTICLE_TAIL,
-            planes=render(PLANE_CONTACTS, reset_history=reset, contact=contact) if c.planes else "",
-            cylinders=render(CYLINDER_CONTACTS, reset_history=reset, contact=contact) if c.cylinders else "")
-    clear = ("f[i, 0] = mass[i] * gravity[0]\nf[i, 1] = mass[i] * gravity[1]\nf[i, 2] = mass[i] * gravity[2]\n"
-             if c.gravity else "f[i, 0] = 0.0\nf[i, 1] = 0.0\nf[i, 2] = 0.0\n")
-    walls_call = "wall_forces(s, n, walls, pp, dt, char_vel)\n" if has_walls else ""
-    forces = render(FORCES, clear=clear, walls=walls_call)
-    step_loop = render(STEP_LOOP, constants=CONSTANTS, unpack=_unpack("s", FIELD_NAMES), forces=forces,
-                       move_planes=MOVE_PLANES if c.planes else "",
-                       forces_pairs=render(FORCES, clear=clear, walls=""), forces_walls=walls_call)
+        walls = render(WALLS, particle_head=PARTICLE_HEAD,
+                       planes=render(PLANE_CONTACTS, reset_history=reset, contact=contact) if c.planes else "",
+                       cylinders=render(CYLINDER_CONTACTS, reset_history=reset, contact=contact) if c.cylinders else "")
+        unpack_walls = _unpack("walls", WALL_FIELDS[:-1]) + "nplanes = plane_axis.shape[0]\n"
+    clear = ("gfx = mass[i] * gravity[0]\ngfy = mass[i] * gravity[1]\ngfz = mass[i] * gravity[2]\n"
+             if c.gravity else "gfx = 0.0\ngfy = 0.0\ngfz = 0.0\n")
+    gather_torque = "".join(f"gtx += reaction[k, {o}]\ngty += reaction[k, {o + 1}]\ngtz += reaction[k, {o + 2}]\n"
+                            for name, o in c.reaction_columns().items() if name != "force")
+    particle_pass = render(PARTICLE_PASS, unpack=unpack, unpack_walls=unpack_walls, clear=clear,
+                           gather_torque=gather_torque, walls=walls, drift=DRIFT)
+    step_loop = render(STEP_LOOP, constants=CONSTANTS, move_planes=MOVE_PLANES if c.planes else "",
+                       nwalls="walls.force.shape[0]" if has_walls else "0",
+                       wall_force_sum=WALL_FORCE_SUM if has_walls else "")
     called = sorted({fn for law in c.laws() for fn in law.functions}, key=lambda fn: fn.__name__)
-    body = pair_forces + wall_forces + step_loop
+    body = pair_forces + particle_pass + step_loop
     if "slip_velocity(" in body:
         from .contact_laws import slip_velocity
         called.append(slip_velocity)
     imports = "".join(f"from {fn.__module__} import {fn.__name__}\n" for fn in called if fn.__name__ + "(" in body)
-    return render(MODULE, combination=repr(c), imports=imports, pair_forces=pair_forces, wall_forces=wall_forces,
-                  step_loop=step_loop)
+    return render(MODULE, combination=repr(c), imports=imports, pair_forces=pair_forces,
+                  particle_pass=particle_pass, step_loop=step_loop)
 
 
 def parameter_table(c: Combination, materials: dict, interactions: dict, ntypes: int):

@@ -1,72 +1,241 @@
 """Cell-list neighbor lists with a skin, rebuilt when a particle has moved more than skin/2.
 
-The list is a *half* list in CSR form: pair k = (i, nbr_j[k]) for nbr_start[i] <= k < nbr_start[i+1], always
-with i < j, so each pair is visited once and Newton's third law gives j its force. A rebuild also
-(1) wraps periodic coordinates, (2) removes particles that left a fixed box, (3) re-orders the particles by
-cell so that neighbors are close in memory, and (4) carries every pair's contact history over to the new
-list (history rows follow their pair through the re-ordering; a pair that swaps its i/j roles gets its
-history negated, since every history vector we store is antisymmetric in i and j).
+The list is a *half* list in CSR form: pair k = (i, j[k]) for start[i] <= k < start[i+1], always with i < j and
+j increasing, so each pair is evaluated once (by i). So that no two threads ever write the same memory, i does
+not add the reaction to j's force itself: it leaves it in the pair's row of `reaction`, and j collects the rows
+of the pairs it belongs to through the reverse index (rstart, rk: the pairs (i, j) of each j, i increasing),
+in the order a serial loop would have added them. Forces are therefore bitwise the same on any number of
+threads, and the same as a serial half-list loop (engine/kernels.py).
+
+A rebuild (1) wraps periodic coordinates, (2) removes particles that left a fixed box, (3) re-orders the
+particles by cell so that neighbors are close in memory, (4) builds the list and its reverse index, and (5)
+carries every pair's contact history over to the new list (history rows follow their pair through the
+re-ordering; a pair that swaps its i/j roles gets its history negated, since every history vector we store
+is antisymmetric in i and j). The loops over particles run on all threads; what they write depends only on
+the particle, never on the thread count.
 """
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .state import reorder
 
-#: the half list in CSR form and the contact history of each listed pair (width 0 without a history submodel)
-NeighborList = namedtuple("NeighborList", ["start", "j", "hist"])
+#: prange loops only: Numba must not turn numpy calls into parallel reductions of its own (their summation
+#: order would depend on the thread count)
+PARALLEL = dict(prange=True, numpy=False, reduction=False, setitem=False, stencil=False, comprehension=False,
+                fusion=False)
+
+#: start (n+1), j (int32): the half list; hist (pairs, width): contact history; rstart (n+1), rk (pairs):
+#: the reverse index; touch (pairs, uint8): 1 where the pair is in contact this step; reaction (pairs, width):
+#: what j takes from the pair this step (force, and torques)
+NeighborList = namedtuple("NeighborList", ["start", "j", "hist", "rstart", "rk", "touch", "reaction"])
 #: particles removed for leaving a fixed axis' range: ids, steps, and count[0] entries used
 LostParticles = namedtuple("LostParticles", ["ids", "steps", "count"])
-
-
-def empty_list(history: int = 0) -> NeighborList:
-    return NeighborList(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros((0, history)))
-
-
-def lost_record(capacity: int) -> LostParticles:
-    return LostParticles(np.zeros(capacity, np.int64), np.zeros(capacity, np.int64), np.zeros(1, np.int64))
 
 #: bins per particle above which the cell grid is coarsened, keeps memory linear in N
 MAX_CELLS_PER_PARTICLE = 8
 
 
-@njit(cache=True, error_model="numpy")
-def max_displacement_check(x, x_build, half_skin_sq, n):
-    """(rebuild needed, index of the first of the n particles with a non-finite position or -1)."""
-    need = False
-    for i in range(n):
-        dx = x[i, 0] - x_build[i, 0]
-        dy = x[i, 1] - x_build[i, 1]
-        dz = x[i, 2] - x_build[i, 2]
-        d2 = dx * dx + dy * dy + dz * dz
-        if d2 > half_skin_sq:
-            need = True
-        elif not d2 <= half_skin_sq:  # NaN fails every comparison
-            return need, i
-    return need, -1
+def empty_list(history: int = 0, reaction: int = 3) -> NeighborList:
+    return NeighborList(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros((0, history)),
+                        np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.uint8),
+                        np.zeros((0, reaction)))
+
+
+def from_half_list(start, j, hist, n: int, reaction: int) -> NeighborList:
+    """The full record of a half list (as restart files store it) for n particles."""
+    rstart, rk = reverse_index(start, j, n)
+    return NeighborList(start, j, hist, rstart, rk, np.zeros(len(j), dtype=np.uint8), np.zeros((len(j), reaction)))
+
+
+def lost_record(capacity: int) -> LostParticles:
+    return LostParticles(np.zeros(capacity, np.int64), np.zeros(capacity, np.int64), np.zeros(1, np.int64))
 
 
 @njit(cache=True, error_model="numpy")
-def _axis_neighbor_cells(c, nc, periodic, out):
-    """Distinct neighbor cell indices of cell c along one axis; returns how many were written to out."""
-    m = 0
+def reverse_index(start, j, n):
+    """(rstart, rk): for each particle p, the pairs k with j[k] == p, in increasing k (so increasing i)."""
+    rstart = np.zeros(n + 1, dtype=np.int64)
+    m = j.shape[0]
+    for k in range(m):
+        rstart[j[k] + 1] += 1
+    for p in range(n):
+        rstart[p + 1] += rstart[p]
+    fill = rstart[:-1].copy()
+    rk = np.empty(m, dtype=np.int64)
+    for k in range(m):
+        p = j[k]
+        rk[fill[p]] = k
+        fill[p] += 1
+    return rstart, rk
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _axis_cells(c, nc, periodic):
+    """Distinct neighbor cells of cell c along one axis: (how many, first, second, third)."""
     if periodic:
         if nc >= 3:
-            out[0] = (c - 1) % nc
-            out[1] = c
-            out[2] = (c + 1) % nc
-            m = 3
+            return 3, (c - 1) % nc, c, (c + 1) % nc
+        return nc, 0, 1, 0
+    first = max(c - 1, 0)
+    return min(c + 1, nc - 1) - first + 1, first, first + 1, first + 2
+
+
+@njit(cache=True, error_model="numpy")
+def _owner(start, k):
+    """The row i of pair k (start[i] <= k < start[i+1])."""
+    lo = 0
+    hi = start.shape[0] - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if start[mid] <= k:
+            lo = mid
         else:
-            for q in range(nc):
-                out[q] = q
-            m = nc
-    else:
-        for q in range(c - 1, c + 2):
-            if q >= 0 and q < nc:
-                out[m] = q
-                m += 1
-    return m
+            hi = mid
+    return lo
+
+
+@njit(cache=True, error_model="numpy")
+def _find(row, value):
+    """Index of value in the sorted array row, or -1."""
+    lo = 0
+    hi = row.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if row[mid] < value:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo if lo < row.shape[0] and row[lo] == value else -1
+
+
+@njit(cache=True, error_model="numpy", parallel=PARALLEL)
+def _wrap(x, n, lo, hi, periodic, keep):
+    """Periodic coordinates back into the box; keep[i] = False for particles outside a fixed axis' range."""
+    box = hi - lo
+    for i in prange(n):
+        inside = True
+        for a in range(3):
+            if periodic[a]:
+                if x[i, a] < lo[a] or x[i, a] >= hi[a]:
+                    x[i, a] -= box[a] * np.floor((x[i, a] - lo[a]) / box[a])
+            elif x[i, a] < lo[a] or x[i, a] > hi[a]:
+                inside = False
+        keep[i] = inside
+
+
+@njit(cache=True, error_model="numpy", parallel=PARALLEL)
+def _cells(x, order, origin, cell_size, nc, cell_of):
+    """Cell of each kept particle (order[q] is its index)."""
+    for q in prange(order.shape[0]):
+        i = order[q]
+        c = 0
+        for a in range(3):
+            ca = int((x[i, a] - origin[a]) / cell_size[a])
+            ca = min(max(ca, 0), nc[a] - 1)
+            c = c * nc[a] + ca
+        cell_of[q] = c
+
+
+@njit(cache=True, error_model="numpy", parallel=PARALLEL)
+def _candidates(cell, cell_start, nc, periodic, count):
+    """Upper bound of each particle's neighbors j > i: the particles of its neighbor cells after it."""
+    for i in prange(cell.shape[0]):
+        c = cell[i]
+        mx, x0, x1, x2 = _axis_cells(c // (nc[1] * nc[2]), nc[0], periodic[0])
+        my, y0, y1, y2 = _axis_cells((c // nc[2]) % nc[1], nc[1], periodic[1])
+        mz, z0, z1, z2 = _axis_cells(c % nc[2], nc[2], periodic[2])
+        ox = (x0, x1, x2)
+        oy = (y0, y1, y2)
+        oz = (z0, z1, z2)
+        total = 0
+        for qa in range(mx):
+            for qb in range(my):
+                for qc in range(mz):
+                    cc = (ox[qa] * nc[1] + oy[qb]) * nc[2] + oz[qc]
+                    total += max(0, cell_start[cc + 1] - max(cell_start[cc], i + 1))
+        count[i] = total
+
+
+@njit(cache=True, error_model="numpy", parallel=PARALLEL)
+def _search(x, radius, cell, cell_start, nc, periodic, box, skin, slot, found, count):
+    """Neighbors j > i within r_i + r_j + skin into found[slot[i]:], their number into count[i]."""
+    for i in prange(cell.shape[0]):
+        c = cell[i]
+        mx, x0, x1, x2 = _axis_cells(c // (nc[1] * nc[2]), nc[0], periodic[0])
+        my, y0, y1, y2 = _axis_cells((c // nc[2]) % nc[1], nc[1], periodic[1])
+        mz, z0, z1, z2 = _axis_cells(c % nc[2], nc[2], periodic[2])
+        ox = (x0, x1, x2)
+        oy = (y0, y1, y2)
+        oz = (z0, z1, z2)
+        ri = radius[i]
+        m = slot[i]
+        for qa in range(mx):
+            for qb in range(my):
+                for qc in range(mz):
+                    cc = (ox[qa] * nc[1] + oy[qb]) * nc[2] + oz[qc]
+                    for j in range(max(cell_start[cc], i + 1), cell_start[cc + 1]):
+                        d0 = x[i, 0] - x[j, 0]
+                        d1 = x[i, 1] - x[j, 1]
+                        d2 = x[i, 2] - x[j, 2]
+                        if periodic[0]:
+                            d0 -= box[0] * np.rint(d0 / box[0])
+                        if periodic[1]:
+                            d1 -= box[1] * np.rint(d1 / box[1])
+                        if periodic[2]:
+                            d2 -= box[2] * np.rint(d2 / box[2])
+                        cut = ri + radius[j] + skin
+                        if d0 * d0 + d1 * d1 + d2 * d2 < cut * cut:
+                            found[m] = j
+                            m += 1
+        count[i] = m - slot[i]
+
+
+@njit(cache=True, error_model="numpy", parallel=PARALLEL)
+def _compact(found, slot, start, new_j):
+    """Each row from the candidate slots into the list, j increasing (the order of the force sums)."""
+    for i in prange(start.shape[0] - 1):
+        m = start[i + 1] - start[i]
+        new_j[start[i]:start[i + 1]] = np.sort(found[slot[i]:slot[i] + m])
+
+
+@njit(cache=True, error_model="numpy", parallel=PARALLEL)
+def _carry_history(order, new_index, old, new_start, new_j, new_hist):
+    """Each new pair takes the history of the same pair in the old list (negated when i and j swapped roles).
+
+    New particle p (old index order[p]) owns its pairs with larger new indices; it finds them among its old
+    pairs as owner (old row) and as partner (old reverse index). Every new row is written by its owner only.
+    """
+    n_old = old.start.shape[0] - 1
+    width = new_hist.shape[1]
+    for p in prange(new_start.shape[0] - 1):
+        op = order[p]
+        if op >= n_old:
+            continue
+        row = new_j[new_start[p]:new_start[p + 1]]
+        for k in range(old.start[op], old.start[op + 1]):
+            b = new_index[old.j[k]]
+            if b > p:
+                pos = _find(row, b)
+                if pos >= 0:
+                    for h in range(width):
+                        new_hist[new_start[p] + pos, h] = old.hist[k, h]
+        for q in range(old.rstart[op], old.rstart[op + 1]):
+            k = old.rk[q]
+            a = new_index[_owner(old.start, k)]
+            if a > p:
+                pos = _find(row, a)
+                if pos >= 0:
+                    for h in range(width):
+                        new_hist[new_start[p] + pos, h] = -old.hist[k, h]
+
+
+@njit(cache=True, error_model="numpy", parallel=PARALLEL)
+def _copy_positions(x, x_build, n):
+    for i in prange(n):
+        for a in range(3):
+            x_build[i, a] = x[i, a]
 
 
 @njit(cache=True, error_model="numpy")
@@ -79,24 +248,23 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost):
     x = s.x
     radius = s.radius
     pid = s.pid
-    nbr_start = nbr.start
-    nbr_j = nbr.j
-    pair_hist = nbr.hist
     box = hi - lo
-    keep = np.ones(n, dtype=np.bool_)
+    keep = np.empty(n, dtype=np.bool_)
+    _wrap(x, n, lo, hi, periodic, keep)
+    nk = 0
     for i in range(n):
-        for a in range(3):
-            if periodic[a]:
-                if x[i, a] < lo[a] or x[i, a] >= hi[a]:
-                    x[i, a] -= box[a] * np.floor((x[i, a] - lo[a]) / box[a])
-            elif x[i, a] < lo[a] or x[i, a] > hi[a]:
-                keep[i] = False
-        if not keep[i]:
+        if keep[i]:
+            nk += 1
+        else:
             lost.ids[lost.count[0]] = pid[i]
             lost.steps[lost.count[0]] = step
             lost.count[0] += 1
-    kept = np.nonzero(keep)[0]
-    nk = kept.shape[0]
+    kept = np.empty(nk, dtype=np.int64)
+    q = 0
+    for i in range(n):
+        if keep[i]:
+            kept[q] = i
+            q += 1
 
     # cell grid: periodic axes span the box, fixed axes only the particles' bounding box (memory ~ N)
     rmax = 0.0
@@ -133,14 +301,7 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost):
         cell_size[a] = extent[a] / nc[a] if periodic[a] else cell
     ncells = nc[0] * nc[1] * nc[2]
     cell_of = np.empty(nk, dtype=np.int64)
-    for q in range(nk):
-        i = kept[q]
-        c = 0
-        for a in range(3):
-            ca = int((x[i, a] - origin[a]) / cell_size[a])
-            ca = min(max(ca, 0), nc[a] - 1)
-            c = c * nc[a] + ca
-        cell_of[q] = c
+    _cells(x, kept, origin, cell_size, nc, cell_of)
     # counting sort by cell: the new particle order (stable, so deterministic)
     cell_start = np.zeros(ncells + 1, dtype=np.int64)
     for q in range(nk):
@@ -161,108 +322,32 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost):
 
     reorder(s, order)
 
-    # pairs within cutoff_ij = r_i + r_j + skin, half list with i < j
-    capacity = max(nbr_j.shape[0] + nbr_j.shape[0] // 4, 8 * nk + 16)
-    new_j = np.empty(capacity, dtype=np.int32)
-    new_start = np.zeros(nk + 1, dtype=np.int64)
-    ox = np.empty(3, dtype=np.int64)
-    oy = np.empty(3, dtype=np.int64)
-    oz = np.empty(3, dtype=np.int64)
-    m = 0
+    # pairs within cutoff_ij = r_i + r_j + skin, half list with i < j: candidates per particle (an upper
+    # bound), then the search into each particle's own slot, then the rows packed and sorted
+    slot = np.empty(nk + 1, dtype=np.int64)
+    slot[0] = 0
+    count = np.empty(nk, dtype=np.int64)
+    _candidates(new_cell, cell_start, nc, periodic, count)
     for i in range(nk):
-        c = new_cell[i]
-        cz = c % nc[2]
-        cy = (c // nc[2]) % nc[1]
-        cx = c // (nc[1] * nc[2])
-        mx = _axis_neighbor_cells(cx, nc[0], periodic[0], ox)
-        my = _axis_neighbor_cells(cy, nc[1], periodic[1], oy)
-        mz = _axis_neighbor_cells(cz, nc[2], periodic[2], oz)
-        ri = radius[i]
-        for qa in range(mx):
-            for qb in range(my):
-                for qc in range(mz):
-                    cc = (ox[qa] * nc[1] + oy[qb]) * nc[2] + oz[qc]
-                    for j in range(max(cell_start[cc], i + 1), cell_start[cc + 1]):
-                        d0 = x[i, 0] - x[j, 0]
-                        d1 = x[i, 1] - x[j, 1]
-                        d2 = x[i, 2] - x[j, 2]
-                        if periodic[0]:
-                            d0 -= box[0] * np.rint(d0 / box[0])
-                        if periodic[1]:
-                            d1 -= box[1] * np.rint(d1 / box[1])
-                        if periodic[2]:
-                            d2 -= box[2] * np.rint(d2 / box[2])
-                        cut = ri + radius[j] + skin
-                        if d0 * d0 + d1 * d1 + d2 * d2 < cut * cut:
-                            if m == capacity:
-                                capacity *= 2
-                                grown = np.empty(capacity, dtype=np.int32)
-                                grown[:m] = new_j[:m]
-                                new_j = grown
-                            new_j[m] = j
-                            m += 1
-        new_start[i + 1] = m
-    new_j = new_j[:m].copy()
-    # neighbors of i in increasing j: the force sums do not depend on cell traversal details
+        slot[i + 1] = slot[i] + count[i]
+    found = np.empty(slot[nk], dtype=np.int32)
+    _search(x, radius, new_cell, cell_start, nc, periodic, box, skin, slot, found, count)
+    new_start = np.empty(nk + 1, dtype=np.int64)
+    new_start[0] = 0
     for i in range(nk):
-        new_j[new_start[i]:new_start[i + 1]] = np.sort(new_j[new_start[i]:new_start[i + 1]])
+        new_start[i + 1] = new_start[i] + count[i]
+    m = new_start[nk]
+    new_j = np.empty(m, dtype=np.int32)
+    _compact(found, slot, new_start, new_j)
 
-    width = pair_hist.shape[1]
+    width = nbr.hist.shape[1]
     new_hist = np.zeros((m if width > 0 else 0, width))
     if width > 0:
-        # bucket the old pairs that carry history by their new smaller index
-        bucket_count = np.zeros(nk + 1, dtype=np.int64)
-        n_old = nbr_start.shape[0] - 1
-        for io in range(n_old):
-            for k in range(nbr_start[io], nbr_start[io + 1]):
-                a = new_index[io]
-                b = new_index[nbr_j[k]]
-                if a < 0 or b < 0:
-                    continue
-                nonzero = False
-                for h in range(width):
-                    if pair_hist[k, h] != 0.0:
-                        nonzero = True
-                if nonzero:
-                    bucket_count[min(a, b) + 1] += 1
-        for q in range(nk):
-            bucket_count[q + 1] += bucket_count[q]
-        bfill = bucket_count[:-1].copy()
-        total = bucket_count[nk]
-        b_other = np.empty(total, dtype=np.int64)
-        b_hist = np.empty((total, width))
-        for io in range(n_old):
-            for k in range(nbr_start[io], nbr_start[io + 1]):
-                a = new_index[io]
-                b = new_index[nbr_j[k]]
-                if a < 0 or b < 0:
-                    continue
-                nonzero = False
-                for h in range(width):
-                    if pair_hist[k, h] != 0.0:
-                        nonzero = True
-                if not nonzero:
-                    continue
-                sign = 1.0
-                if a > b:
-                    a, b = b, a
-                    sign = -1.0
-                p = bfill[a]
-                b_other[p] = b
-                for h in range(width):
-                    b_hist[p, h] = sign * pair_hist[k, h]
-                bfill[a] += 1
-        for i in range(nk):
-            for p in range(bucket_count[i], bucket_count[i + 1]):
-                for k in range(new_start[i], new_start[i + 1]):
-                    if new_j[k] == b_other[p]:
-                        for h in range(width):
-                            new_hist[k, h] = b_hist[p, h]
-                        break
-    for i in range(nk):
-        for a in range(3):
-            s.x_build[i, a] = x[i, a]
-    return nk, NeighborList(new_start, new_j, new_hist)
+        _carry_history(order, new_index, nbr, new_start, new_j, new_hist)
+    rstart, rk = reverse_index(new_start, new_j, nk)
+    _copy_positions(x, s.x_build, nk)
+    return nk, NeighborList(new_start, new_j, new_hist, rstart, rk, np.zeros(m, dtype=np.uint8),
+                            np.empty((m, nbr.reaction.shape[1])))
 
 
 @njit(cache=True, error_model="numpy")

@@ -14,7 +14,7 @@ import numpy as np
 
 from . import state as particle_state
 from .errors import InputError, output_failure
-from .neighbor import NeighborList
+from .neighbor import from_half_list
 from .script import Fields
 
 RESTART_FORMAT = 2
@@ -78,7 +78,8 @@ def read_restart(sim, path: str, fields: Fields):
     sim.plane_pos = data["plane_pos"].copy()
     sim.wall_force = data["wall_force"].copy()
     sim.state = particle_state.from_arrays(data)
-    sim.nbr = NeighborList(**{name: np.ascontiguousarray(data[key]) for key, name in NEIGHBOR_ARRAYS.items()})
+    start, j, hist = (np.ascontiguousarray(data[key]) for key in NEIGHBOR_ARRAYS)
+    sim.nbr = from_half_list(start, j.astype(np.int32), hist, sim.n, 3)
     sim.dirty = bool(data["dirty"])
     sim.log.info(f"read restart file {path}: step {sim.step}, {sim.n} particles")
 
@@ -134,6 +135,8 @@ def _check_restart(data: dict) -> list[dict]:
     if (not 1 <= len(start) <= n + 1 or start[0] != 0 or np.any(np.diff(start) < 0) or start[-1] != len(j)
             or (len(j) and (j.min() < 0 or j.max() >= n))):
         raise ValueError("the neighbor list does not fit the particles")
+    if data["pair_hist"].shape[0] != len(j) and data["pair_hist"].size:
+        raise ValueError(f"{data['pair_hist'].shape[0]} contact history rows for {len(j)} listed pairs")
     try:
         walls = json.loads(str(data["walls"]))
     except ValueError as exc:

@@ -10,6 +10,7 @@ import time
 import numpy as np
 
 from . import guards, quantities
+from . import threads as thread_pool
 from . import state as particle_state
 from .errors import RunFailure
 from .kernels import Combination, Constants, build_kernel, parameter_table
@@ -61,13 +62,16 @@ def check_ready(sim, fields: Fields):
 
 
 def fit_history(sim, combo: Combination):
-    """History arrays sized for this combination: width 0 (nothing stored) unless a submodel needs it."""
+    """History arrays sized for this combination: width 0 (nothing stored) unless a submodel needs it; the
+    pairs' reaction rows as wide as the submodels that push or turn the partner."""
     width = combo.history_width
     nbr = sim.nbr
     if len(nbr.start) > sim.n + 1:  # stale list after particles vanished: start afresh
-        nbr = empty_list(width)
+        nbr = empty_list(width, combo.reaction_width)
     if nbr.hist.shape != (len(nbr.j) if width else 0, width):
         nbr = nbr._replace(hist=np.zeros((len(nbr.j) if width else 0, width)))
+    if nbr.reaction.shape != (len(nbr.j), combo.reaction_width):
+        nbr = nbr._replace(reaction=np.zeros((len(nbr.j), combo.reaction_width)))
     sim.nbr = nbr
     sim.state = particle_state.fit_wall_history(sim.state, len(sim.walls), width)
 
@@ -97,6 +101,7 @@ def run(sim, fields: Fields):
                           gravity=sim.gravity_vector(), lo=sim.lo, hi=sim.hi, periodic=sim.periodic, skin=sim.skin)
     started_with = sim.n
     created = sim.dirty
+    threads = thread_pool.use(sim.n, sim.threads)
     if sim.dirty:
         lost = lost_record(sim.n)
         n, sim.nbr = kernel.setup(sim.state, sim.n, sim.nbr, walls, pp, constants, sim.step, lost)
@@ -136,6 +141,7 @@ def run(sim, fields: Fields):
     while sim.step < end:
         stop = next_stop(sim, end)
         n = sim.n
+        threads = thread_pool.use(n, sim.threads)
         lost = lost_record(n)
         status, bad, done, rebuilt, kept, sim.nbr = kernel.run_steps(
             sim.state, n, sim.nbr, walls, pp, constants, sim.step, stop - sim.step, timers, lost)
@@ -175,4 +181,5 @@ def run(sim, fields: Fields):
                  f"({rate:.4g} particle-steps/s); pair {timers[1]:.4g} s, neigh {timers[0]:.4g} s "
                  f"({rebuilds} rebuilds), modify {timers[2]:.4g} s; max overlap {max_overlap:.2%} of radius; "
                  f"particles lost so far {sim.lost_total}; cpu {cpu:.6g} s "
-                 f"({particle_steps / cpu if cpu > 0 else 0.0:.4g} particle-steps per cpu second)")
+                 f"({particle_steps / cpu if cpu > 0 else 0.0:.4g} particle-steps per cpu second); "
+                 f"threads {threads} ({thread_pool.layer()})")

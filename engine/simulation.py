@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import commands, modifiers
+from . import threads as thread_pool
 from . import state as particle_state
 from .log import Log
 from .neighbor import empty_list
@@ -24,8 +25,9 @@ TIMESTEP_CHECK_EVERY = 1000
 class Simulation:
     """One scene. Types are numbered from 1 in scripts and from 0 inside arrays (``ptype = type - 1``)."""
 
-    def __init__(self, log: Log):
+    def __init__(self, log: Log, threads: int | None = None):
         self.log = log
+        self.threads = min(threads, thread_pool.pool_size()) if threads else thread_pool.pool_size()
         self.lo = self.hi = None  # domain, m
         self.periodic = np.zeros(3, dtype=np.bool_)
         self.skin = 0.001  # m, the LIGGGHTS SI default
@@ -53,7 +55,7 @@ class Simulation:
         self.dirty = True
         self.lost_total = 0
         self.timing = dict(pair=0.0, neigh=0.0, comm=0.0, modify=0.0, output=0.0, other=0.0, total=0.0,
-                           cpu=0.0, compile=0.0, steps=0, particles=0, particle_steps=0)
+                           cpu=0.0, compile=0.0, steps=0, particles=0, particle_steps=0, threads=self.threads)
 
     def execute(self, cmd: dict, index: int, script: str):
         """One command of a script (index from 1)."""

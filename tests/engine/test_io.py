@@ -102,13 +102,13 @@ def test_no_history_allocated_without_a_history_submodel(tmp_path, monkeypatch):
 
 def test_generated_kernel_holds_only_named_effects():
     base = generate_source(Combination(normal="hertz", tangential="none"))
-    for absent in ("tangential_history(", "tangential_no_history(", "sjkr_", "rolling_", "wall_forces(",
+    for absent in ("tangential_history(", "tangential_no_history(", "sjkr_", "rolling_", "nplanes",
                    "pair_hist[", "gravity[0]", "np.rint"):
         assert absent not in base
     full = generate_source(Combination(normal="hertz", tangential="history", cohesion="sjkr", rolling="epsd2",
                                        planes=True, cylinders=True, gravity=True, periodic=(True, False, False)))
     for present in ("tangential_history(", "sjkr_pair_force(", "sjkr_wall_force(", "rolling_epsd2(",
-                    "wall_forces(", "pair_hist[k, 3]", "gravity[0]", "dx -= box[0]"):
+                    "plane_pos[w]", "cyl_radius[q]", "pair_hist[k, 3]", "gravity[0]", "dx -= box[0]"):
         assert present in full
     assert "dy -= box" not in full
 
