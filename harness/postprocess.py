@@ -34,8 +34,11 @@ def _json_values(values) -> list:
 
 
 def frame_to_series(kind: str, name: str, frame: pd.DataFrame, x_column: str = "", meta=None) -> dict:
+    """A series record; ``meta["order"]`` keeps the column order (PostgreSQL's jsonb does not keep key order,
+    and a declared plot's legend follows its columns)."""
     return {"kind": kind, "name": name, "x_column": x_column,
-            "columns": {str(c): _json_values(frame[c].to_numpy()) for c in frame.columns}, "meta": meta or {}}
+            "columns": {str(c): _json_values(frame[c].to_numpy()) for c in frame.columns},
+            "meta": {**(meta or {}), "order": [str(c) for c in frame.columns]}}
 
 
 def non_finite_columns(frame: pd.DataFrame) -> list[str]:

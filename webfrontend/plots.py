@@ -100,11 +100,15 @@ def _declared_label(text: str) -> str:
 
 
 def quantities(series) -> list[str]:
-    """Plottable columns of a series: numeric lists other than the abscissa, in stored order."""
+    """Plottable columns of a series: numeric lists other than the abscissa, in the order the series had when
+    it was read (``meta["order"]``: PostgreSQL's jsonb keeps no key order), else in stored order."""
     cols = series.columns if isinstance(series.columns, dict) else {}
-    return [name for name, values in cols.items()
-            if name != series.x_column and isinstance(values, list) and values
-            and all(isinstance(v, (int, float)) or v is None for v in values[:50])]
+    order = (series.meta or {}).get("order")
+    names = [n for n in order if n in cols] + [n for n in cols if n not in order] if isinstance(order, list) \
+        else list(cols)
+    return [name for name in names
+            if name != series.x_column and isinstance(cols[name], list) and cols[name]
+            and all(isinstance(v, (int, float)) or v is None for v in cols[name][:50])]
 
 
 def abscissa(series) -> tuple[list[float], str]:
@@ -314,7 +318,7 @@ def consistency_plots(result, run_series, reference_series, run_label: str, refe
         dev_series.append({"label": f"{run_label} - reference", "values": deviation, "color": PALETTE[0]})
         unit = unit_of(reference_series, quantity)
         out.append(plot(f"{result.series_name}: {quantity}, deviation from the reference (eps = {eps:.4g})",
-                        xlabel, f"x - x_ref" + (f" [{unit}]" if unit else ""), dx, dev_series, bands=dev_bands,
+                        xlabel, "x - x_ref" + (f" [{unit}]" if unit else ""), dx, dev_series, bands=dev_bands,
                         markers=markers))
     return out
 

@@ -74,11 +74,11 @@ def add_series(run: Run, ke: list[float]) -> None:
     Series.objects.create(run=run, kind="thermo", name="thermo", x_column="step",
                           columns={"step": STEPS, "atoms": [12] * len(STEPS), "ke": ke,
                                    "rke": [0.0] * len(STEPS)},
-                          meta={"units": {"ke": "J", "rke": "J"}})
+                          meta={"units": {"ke": "J", "rke": "J"}, "order": ["step", "atoms", "ke", "rke"]})
     Series.objects.create(run=run, kind="plot", name="torqueZ", x_column="t",
                           columns={"t": [s * 1e-5 for s in STEPS], "torqueZ": [k * 10 for k in ke]},
                           meta={"title": "Torque", "xlabel": "time_[s]", "ylabel": "torque_z_[Nm]",
-                                "legend": ["torqueZ_(rotor)"]})
+                                "legend": ["torqueZ_(rotor)"], "order": ["t", "torqueZ"]})
 
 
 #: test case content hashes (sha256 hex) the runs ran
