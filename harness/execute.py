@@ -134,8 +134,21 @@ def fail(record: dict, reason: str, message: str) -> dict:
 
 def _run_engine(spec: dict, folder: Path, record: dict) -> tuple[int | None, bool]:
     """Run the command; returns (exit code, timed out)."""
+    ws = Workspace.at(spec["workspace"])
+    (ws.home / "tmp").mkdir(parents=True, exist_ok=True)
+    session = Path(tempfile.mkdtemp(prefix="mpi-", dir=ws.home / "tmp"))
+    try:
+        return _run_engine_in(spec, folder, session)
+    finally:
+        ws.remove_tree(session)
+
+
+def _run_engine_in(spec: dict, folder: Path, session: Path) -> tuple[int | None, bool]:
     env = dict(os.environ)
     env.update(spec.get("environment") or {})
+    # Open MPI (LIGGGHTS, LAMMPS, mpirun) keeps a session folder per user in /tmp; engines starting at the same
+    # moment race to create it ("mkdir ... File exists") and one dies: each run gets its own
+    env["OMPI_MCA_orte_tmpdir_base"] = str(session)
     timeout = float(spec.get("timeout") or 600)
     with open(folder / STDOUT, "wb") as out, open(folder / STDERR, "wb") as err:
         try:
@@ -275,16 +288,23 @@ def execute(spec: dict) -> dict:
         return record
     record["stderr_tail"] = tail(folder / STDERR, 20)
     record["log_tail"] = tail(folder / adapter.log_file()) or tail(folder / STDOUT)
-    scan = adapter.scan_log(folder)
+    from harness.adapters.base import LogScan
     from harness.adapters.dem import scan_lines
 
+    missing = None
+    try:
+        scan = adapter.scan_log(folder)
+        record["timing"] = adapter.read_timing(folder)
+    except UserError as exc:  # no log at all: the engine did not start, or died first
+        scan, missing = LogScan(), str(exc)
     stderr_scan = scan_lines(record["stderr_tail"])
     scan.errors += [line for line in stderr_scan.errors if line not in scan.errors]
     record["warning_count"] = len(scan.warnings)
     record["warnings"] = scan.warnings[:50]
-    record["timing"] = adapter.read_timing(folder)
     record["stepping_time"] = runrecord.stepping_time_of(record["timing"])
     _classify(record, code, timed_out, scan, float(spec.get("timeout") or 600))
+    if missing and record["state"] != "failed":
+        fail(record, "missing_output", missing)
     try:
         postprocess_run(spec, folder, record, adapter)
     except Exception as exc:  # noqa: BLE001 - a post-processing bug must not lose the run
