@@ -17,11 +17,12 @@ MAX_PARTICLES = 2 ** 31 - 1
 #: lattice_points, per site of the bounding-box grid: meshgrid (3 x 8), the stacked grid (24), the clearance
 #: margin (8), the comparison masks (about 10 booleans) and the selected points (24)
 LATTICE_SITE_BYTES = 96
-#: random_packing, per sphere: radii (8, twice for a radius range), its share of the candidate table
-#: (24 per attempt, counted separately), _place_spheres' px, pr, nxt, out (24 + 8 + 8 + 24) and cell heads
-#: (at most 8 cells per sphere, 8 bytes each)
+#: random_packing, per sphere: radii (8, twice for a radius range), _place_spheres' px, pr, nxt, out
+#: (24 + 8 + 8 + 24) and cell heads (at most 8 cells per sphere, 8 bytes each); candidates are drawn in batches
+#: of scene.CANDIDATE_BATCH (24 bytes each), whatever max_attempts is
 PACKING_SPHERE_BYTES = 16 + 64 + 64
 PACKING_ATTEMPT_BYTES = 24
+PACKING_BATCH = 1 << 16
 #: _add_particles: concatenating one state array at a time holds old + new copies of it (the widest is
 #: 3 x 8 bytes); positions, radii, masses and tiled velocities of the new particles (24 + 8 + 8 + 48)
 ADD_OLD_BYTES = 24
@@ -91,5 +92,5 @@ def creation_bytes(new_particles: int, existing: int, particle_bytes: int, grid_
     need = new_particles * (particle_bytes + ADD_NEW_BYTES) + (existing + new_particles) * ADD_OLD_BYTES
     need += grid_sites * LATTICE_SITE_BYTES
     if attempts:
-        need += new_particles * (PACKING_SPHERE_BYTES + attempts * PACKING_ATTEMPT_BYTES)
+        need += new_particles * PACKING_SPHERE_BYTES + min(attempts * new_particles, PACKING_BATCH) * PACKING_ATTEMPT_BYTES
     return need

@@ -6,6 +6,8 @@ import math
 import numpy as np
 from numba import njit
 
+from . import memory
+
 
 
 def region_contains(region: dict, points: np.ndarray, margin: np.ndarray) -> np.ndarray:
@@ -40,38 +42,50 @@ def lattice_points(region: dict, spacing: float, radius: float) -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy")
-def _place_spheres(existing_x, existing_r, radii, candidates, shape, lo, hi, center, cyl_radius, grid_lo, cell,
-                   ncell):
-    """Random sequential addition: candidates[k] (uniform in the region's bounding box) are tried in order.
+def _grid_insert(px, pr, head, nxt, count, point, r, grid_lo, cell, ncell):
+    """Put a sphere (centre point, radius r) into the cell lists; returns the new count."""
+    key = 0
+    for a in range(3):
+        c = min(max(int(math.floor((point[a] - grid_lo[a]) / cell)), 0), ncell[a] - 1)
+        key = key * ncell[a] + c
+    px[count] = point
+    pr[count] = r
+    nxt[count] = head[key]
+    head[key] = count
+    return count + 1
 
-    A candidate is taken for the next sphere (radius radii[placed]) if the whole sphere lies in the region
-    (shape 0 = box lo..hi, 1 = z-cylinder with centre, radius and z range lo[2]..hi[2]) and it overlaps
-    neither an existing particle nor an already placed one. Returns the placed centres.
-    """
-    n_exist = existing_x.shape[0]
-    n_new = radii.shape[0]
-    total = n_exist + n_new
+
+@njit(cache=True, error_model="numpy")
+def _grid_start(existing_x, existing_r, total, grid_lo, cell, ncell):
+    """Cell lists (px, pr, head, nxt, count) holding the existing particles inside the grid."""
     px = np.empty((total, 3))
     pr = np.empty(total)
     head = -np.ones(ncell[0] * ncell[1] * ncell[2], dtype=np.int64)
     nxt = -np.ones(total, dtype=np.int64)
-    c = np.empty(3, dtype=np.int64)
     count = 0
-    for e in range(n_exist):
+    for e in range(existing_x.shape[0]):
         inside = True
         for a in range(3):
-            c[a] = int(math.floor((existing_x[e, a] - grid_lo[a]) / cell))
-            if c[a] < 0 or c[a] >= ncell[a]:
+            c = int(math.floor((existing_x[e, a] - grid_lo[a]) / cell))
+            if c < 0 or c >= ncell[a]:
                 inside = False
         if inside:
-            px[count] = existing_x[e]
-            pr[count] = existing_r[e]
-            key = (c[0] * ncell[1] + c[1]) * ncell[2] + c[2]
-            nxt[count] = head[key]
-            head[key] = count
-            count += 1
-    placed = 0
-    out = np.empty((n_new, 3))
+            count = _grid_insert(px, pr, head, nxt, count, existing_x[e], existing_r[e], grid_lo, cell, ncell)
+    return px, pr, head, nxt, count
+
+
+@njit(cache=True, error_model="numpy")
+def _place_spheres(radii, candidates, shape, lo, hi, center, cyl_radius, grid_lo, cell, ncell, px, pr, head,
+                   nxt, count, out, placed):
+    """Random sequential addition: candidates (uniform in the region's bounding box) are tried in order.
+
+    A candidate is taken for the next sphere (radius radii[placed]) if the whole sphere lies in the region
+    (shape 0 = box lo..hi, 1 = z-cylinder with centre, radius and z range lo[2]..hi[2]) and it overlaps
+    neither an existing particle nor an already placed one (cell lists px, pr, head, nxt). Placed centres go
+    to out. Returns (count, placed) after this batch of candidates.
+    """
+    n_new = radii.shape[0]
+    c = np.empty(3, dtype=np.int64)
     for k in range(candidates.shape[0]):
         if placed == n_new:
             break
@@ -102,15 +116,15 @@ def _place_spheres(existing_x, existing_r, radii, candidates, shape, lo, hi, cen
                         p = nxt[p]
         if not ok:
             continue
-        px[count] = cand
-        pr[count] = r
-        key = (c[0] * ncell[1] + c[1]) * ncell[2] + c[2]
-        nxt[count] = head[key]
-        head[key] = count
-        count += 1
+        count = _grid_insert(px, pr, head, nxt, count, cand, r, grid_lo, cell, ncell)
         out[placed] = cand
         placed += 1
-    return out[:placed]
+    return count, placed
+
+
+#: candidates drawn at a time: the table of all max_attempts x count candidates (24 B each: 5 GB for 1e6
+#: spheres at 200 attempts) is never held; drawing in batches gives the same numbers (one stream)
+CANDIDATE_BATCH = memory.PACKING_BATCH
 
 
 def random_packing(region: dict, radii: np.ndarray, seed: int, existing_x: np.ndarray, existing_r: np.ndarray,
@@ -132,9 +146,18 @@ def random_packing(region: dict, radii: np.ndarray, seed: int, existing_x: np.nd
         if ncell.prod() <= 8 * n_total + 1000:
             break
         cell *= 1.25
-    candidates = lo + rng.random((max_attempts * len(radii), 3)) * (hi - lo)
     shape = 0 if region["shape"] == "box" else 1
     center = np.asarray(region.get("center", [0.0, 0.0]), dtype=np.float64)
-    return _place_spheres(np.ascontiguousarray(existing_x, dtype=np.float64).reshape(-1, 3),
-                          np.ascontiguousarray(existing_r, dtype=np.float64), radii, candidates, shape, lo, hi,
-                          center, float(region.get("radius", 0.0)), grid_lo, cell, ncell)
+    px, pr, head, nxt, count = _grid_start(np.ascontiguousarray(existing_x, dtype=np.float64).reshape(-1, 3),
+                                           np.ascontiguousarray(existing_r, dtype=np.float64), n_total, grid_lo,
+                                           cell, ncell)
+    out = np.empty((len(radii), 3))
+    placed = 0
+    left = max_attempts * len(radii)
+    while left > 0 and placed < len(radii):
+        batch = min(left, CANDIDATE_BATCH)
+        candidates = lo + rng.random((batch, 3)) * (hi - lo)
+        count, placed = _place_spheres(radii, candidates, shape, lo, hi, center, float(region.get("radius", 0.0)),
+                                       grid_lo, cell, ncell, px, pr, head, nxt, count, out, placed)
+        left -= batch
+    return out[:placed]

@@ -68,15 +68,19 @@ def write_vtp(path: Path, ids, types, x, v, f, omega, radius):
 
     Arrays: id, type (user numbering, from 1), velocity (m/s), force (N), omega (rad/s), radius (m).
     """
-    import vtk
-    from vtk.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
+    # the few VTK modules a PolyData file needs: `import vtk` loads all of VTK (about 110 MB more memory)
+    from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
+    from vtkmodules.vtkCommonCore import vtkObject, vtkPoints
+    from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+    from vtkmodules.vtkCommonMisc import vtkErrorCode
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
 
     n = len(ids)
-    points = vtk.vtkPoints()
+    points = vtkPoints()
     points.SetData(numpy_to_vtk(np.ascontiguousarray(x, dtype=np.float64), deep=True))
-    poly = vtk.vtkPolyData()
+    poly = vtkPolyData()
     poly.SetPoints(points)
-    cells = vtk.vtkCellArray()
+    cells = vtkCellArray()
     cells.SetData(numpy_to_vtkIdTypeArray(np.arange(n + 1, dtype=np.int64), deep=True),
                   numpy_to_vtkIdTypeArray(np.arange(n, dtype=np.int64), deep=True))
     poly.SetVerts(cells)
@@ -92,21 +96,21 @@ def write_vtp(path: Path, ids, types, x, v, f, omega, radius):
         open(path, "wb").close()
     except OSError as exc:
         raise output_failure("VTK dump", path, exc) from None
-    writer = vtk.vtkXMLPolyDataWriter()
+    writer = vtkXMLPolyDataWriter()
     writer.SetFileName(str(path))
     writer.SetInputData(poly)
     writer.SetDataModeToBinary()
     # VTK prints its own multi-line error report on stderr; the engine reports one ERROR line instead
-    shown = vtk.vtkObject.GetGlobalWarningDisplay()
-    vtk.vtkObject.GlobalWarningDisplayOff()
+    shown = vtkObject.GetGlobalWarningDisplay()
+    vtkObject.GlobalWarningDisplayOff()
     try:
         ok = writer.Write()
     finally:
-        vtk.vtkObject.SetGlobalWarningDisplay(shown)
+        vtkObject.SetGlobalWarningDisplay(shown)
     if not ok:
         code = writer.GetErrorCode()
-        reason = (os.strerror(code) if 0 < code < vtk.vtkErrorCode.FirstVTKErrorCode
-                  else vtk.vtkErrorCode.GetStringFromErrorCode(code))
+        reason = (os.strerror(code) if 0 < code < vtkErrorCode.FirstVTKErrorCode
+                  else vtkErrorCode.GetStringFromErrorCode(code))
         raise output_failure("VTK dump", path, OSError(code, reason))
 
 

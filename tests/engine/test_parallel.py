@@ -1,0 +1,158 @@
+"""All cores, same answers: thread count and neighbor lists (issue 11).
+
+The harness compares engine versions; the number of cores must never change a verdict. A scene with contact
+history, cohesion, rolling friction, walls and periodic axes runs as a program with 1 and with 2 threads (the
+parallel loops forced on however small the scene is) and must write the same bytes. The neighbor list is
+checked against brute force on random, periodic, polydisperse particles, after re-ordering and particle loss,
+with the contact history following its pairs.
+"""
+import filecmp
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import REPO, domain, gravity, interaction, material, model, plane, run, timestep
+
+#: 400 polydisperse spheres poured onto a floor in a box periodic along x and y, next to a pillar (a cylinder
+#: wall), one sphere shot out of the top (lost at a rebuild)
+SCENE = [domain((-0.015, -0.015, -0.01), (0.015, 0.015, 0.08), periodic=(True, True, False)),
+         material(y=5e6, nu=0.45, rho=2500), interaction(e=0.5, mu=0.3, rolling_friction=0.05,
+                                                         cohesion_energy_density=2e4),
+         model("hertz", "history", cohesion="sjkr", rolling="epsd2"), plane("floor", "z", 0.0),
+         {"command": "create", "object": "wall", "name": "pillar", "shape": "cylinder", "center": [0.01, 0],
+          "radius": 0.003, "side": "outside", "type": 1}] + gravity() + [
+    {"command": "create", "object": "random_packing", "type": 1, "count": 400, "seed": 11, "radius_min": 0.0012,
+     "radius_max": 0.0018, "region": {"shape": "box", "lo": [-0.015, -0.015, 0.0], "hi": [0.005, 0.015, 0.07]}},
+    {"command": "create", "object": "particle", "type": 1, "radius": 0.001, "position": [0.01, 0.01, 0.075],
+     "velocity": [0, 0, 3.0]},
+    timestep(2e-5),
+    {"command": "set", "property": "thermo", "every": 500,
+     "columns": ["ke", "rke", "contacts", "max_overlap", "wall_fz[floor]", "wall_fx[pillar]", "com_z"]},
+    {"command": "create", "object": "modifier", "name": "dump", "kind": "vtk", "every": 3000},
+    {"command": "fix", "name": "dump"},
+    {"command": "create", "object": "modifier", "name": "track", "kind": "print", "every": 50,
+     "file": "track.csv", "quantities": ["x[7]", "vz[7]", "omegay[7]", "fz[42]"]},
+    {"command": "fix", "name": "track"}, run(6000)]
+
+
+def engine(folder, *args, env=None):
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "scene.json").write_text(json.dumps(SCENE))
+    full_env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_NUM_THREADS", "PYTHONPATH")}
+    full_env.update(PYTHONPATH=str(REPO), DEM_SERIAL_BELOW="0", **(env or {}))
+    return subprocess.run([sys.executable, "-m", "engine", "-in", "scene.json", *args], cwd=folder,
+                          env=full_env, capture_output=True, text=True, timeout=900)
+
+
+def test_thread_count_never_changes_the_bytes(tmp_path):
+    one = engine(tmp_path / "one", env={"NUMBA_NUM_THREADS": "1"})
+    two = engine(tmp_path / "two", "-threads", "2")
+    assert one.returncode == 0, one.stderr
+    assert two.returncode == 0, two.stderr
+    assert "; threads 1 (" in one.stdout and "; threads 2 (" in two.stdout
+    assert json.loads((tmp_path / "two" / "timing.json").read_text())["threads"] == 2
+    files = ["thermo.csv", "track.csv", "post/particles_0.vtp", "post/particles_3000.vtp",
+             "post/particles_6000.vtp"]
+    for name in files:
+        assert filecmp.cmp(tmp_path / "one" / name, tmp_path / "two" / name, shallow=False), name
+    rows = (tmp_path / "one" / "thermo.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    last = dict(zip(header, rows[-1].split(",")))
+    # a bed with contacts on the floor, against the pillar, and one sphere lost
+    assert int(last["contacts"]) > 300 and float(last["wall_fz[floor]"]) < 0 and last["atoms"] == "400"
+    assert any(float(r.split(",")[header.index("wall_fx[pillar]")]) != 0 for r in rows[1:])
+
+
+def test_bad_thread_count_is_bad_input(tmp_path):
+    proc = engine(tmp_path, "-threads", "zero")
+    assert proc.returncode == 2 and proc.stderr.startswith("ERROR: -threads needs a whole number")
+
+
+# ---------------------------------------------------------------- the neighbor list against brute force
+
+def brute_force_pairs(x, radius, pid, lo, hi, periodic, skin) -> set:
+    """Pairs (smaller id, larger id) within r_i + r_j + skin, minimum image along periodic axes."""
+    box = hi - lo
+    d = x[:, None, :] - x[None, :, :]
+    for a in range(3):
+        if periodic[a]:
+            d[:, :, a] -= box[a] * np.rint(d[:, :, a] / box[a])
+    cut = radius[:, None] + radius[None, :] + skin
+    close = np.sum(d * d, axis=2) < cut * cut
+    i, j = np.nonzero(np.triu(close, k=1))
+    return {(min(a, b), max(a, b)) for a, b in zip(pid[i].tolist(), pid[j].tolist())}
+
+
+def random_state(rng, n, lo, hi, outside=0):
+    from engine import state as particle_state
+
+    x = lo + rng.random((n, 3)) * (hi - lo)
+    x[:outside, 2] = hi[2] + 0.01  # these leave the fixed z range: lost at the rebuild
+    radius = 0.004 + 0.006 * rng.random(n)
+    return particle_state.append(particle_state.empty(1, 3), x=x, radius=radius, mass=np.ones(n),
+                                 pid=np.arange(1, n + 1), x_build=x.copy(),
+                                 v=rng.standard_normal((n, 3)), wall_hist=np.zeros((n, 1, 3)))
+
+
+def listed_pairs(state, nbr, n) -> set:
+    pairs = set()
+    for i in range(n):
+        row = nbr.j[nbr.start[i]:nbr.start[i + 1]]
+        assert np.all(np.diff(row) > 0) and (len(row) == 0 or row[0] > i)  # half list, j increasing
+        pairs.update((min(state.pid[i], state.pid[j]), max(state.pid[i], state.pid[j])) for j in row.tolist())
+    return pairs
+
+
+@pytest.mark.parametrize("periodic", [(False, False, False), (True, True, False), (True, True, True)])
+def test_neighbor_list_matches_brute_force_after_reordering_and_loss(periodic):
+    import numba
+
+    from engine import state as particle_state
+    from engine.neighbor import empty_list, lost_record, rebuild
+
+    rng = np.random.default_rng(5)
+    lo, hi = np.array([-0.1, -0.1, -0.1]), np.array([0.1, 0.12, 0.1])
+    periodic = np.array(periodic)
+    skin = 0.003
+    n = 600
+    results = []
+    for threads in (1, 2):
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+        s = random_state(np.random.default_rng(5), n, lo, hi, outside=0 if periodic[2] else 7)
+        lost = lost_record(n)
+        kept, nbr = rebuild(s, n, empty_list(3), lo, hi, periodic, skin, 1, lost)
+        s = particle_state.trimmed(s, kept)
+        expected_lost = 0 if periodic[2] else 7
+        assert kept == n - expected_lost and lost.count[0] == expected_lost
+        assert sorted(lost.ids[:expected_lost].tolist()) == list(range(1, expected_lost + 1))
+        assert listed_pairs(s, nbr, kept) == brute_force_pairs(s.x, s.radius, s.pid, lo, hi, periodic, skin)
+        # every field moved with its particle
+        assert np.array_equal(np.sort(s.pid), np.arange(expected_lost + 1, n + 1))
+        assert np.array_equal(s.x_build, s.x) and np.all(s.mass == 1.0)
+        # the reverse index lists, for each j, its pairs in increasing i
+        for p in range(kept):
+            ks = nbr.rk[nbr.rstart[p]:nbr.rstart[p + 1]]
+            assert np.all(nbr.j[ks] == p) and np.all(np.diff(ks) > 0)
+        assert nbr.rstart[-1] == len(nbr.j)
+        # history antisymmetric in (i, j): id_i - id_j; after moving the particles and rebuilding, each pair
+        # still holds it for its (possibly swapped) owner
+        old_pairs = listed_pairs(s, nbr, kept)
+        owner = np.repeat(np.arange(kept), np.diff(nbr.start))
+        nbr.hist[:, 0] = s.pid[owner] - s.pid[nbr.j]
+        s.x[:kept] += 0.004 * np.random.default_rng(9).standard_normal((kept, 3))
+        kept2, nbr2 = rebuild(s, kept, nbr, lo, hi, periodic, skin, 2, lost_record(kept))
+        s = particle_state.trimmed(s, kept2)
+        assert listed_pairs(s, nbr2, kept2) == brute_force_pairs(s.x, s.radius, s.pid, lo, hi, periodic, skin)
+        owner2 = np.repeat(np.arange(kept2), np.diff(nbr2.start))
+        for k in range(len(nbr2.j)):
+            a, b = s.pid[owner2[k]], s.pid[nbr2.j[k]]
+            expected = a - b if (min(a, b), max(a, b)) in old_pairs else 0.0
+            assert nbr2.hist[k, 0] == expected
+        results.append((s.pid.copy(), s.x.copy(), nbr2.start.copy(), nbr2.j.copy(), nbr2.hist.copy()))
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    for a, b in zip(*results):
+        assert np.array_equal(a, b)  # the same bytes on 1 and 2 threads
