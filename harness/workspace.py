@@ -101,9 +101,10 @@ class Workspace:
             raise UserError(f"refusing to delete {path}: it is not inside the workspace {self.home}")
         target = parent / path.name
         if target.is_symlink() or target.is_file():
-            target.unlink()
+            target.unlink(missing_ok=True)
         elif target.exists():
-            shutil.rmtree(target)
+            # a file that vanishes meanwhile (a program still cleaning its own temporary files) is gone anyway
+            shutil.rmtree(target, onerror=_ignore_vanished)
 
     def fresh_folder(self, path) -> Path:
         """An empty folder at ``path`` inside the workspace (whatever was there is removed)."""
@@ -119,6 +120,12 @@ class Workspace:
         self.locks.mkdir(parents=True, exist_ok=True)
         safe = re.sub(r"[^A-Za-z0-9_.=@+-]", "_", name)[:200]
         return FileLock(str(self.locks / f"{safe}.lock"), timeout=timeout)
+
+
+def _ignore_vanished(function, path, exc_info) -> None:
+    """``shutil.rmtree``'s error handler (Python 3.11's ``onerror`` form): only a vanished file is ignored."""
+    if not issubclass(exc_info[0], FileNotFoundError):
+        raise exc_info[1]
 
 
 _active: Workspace | None = None
