@@ -158,7 +158,7 @@ tiy += cri * tqy
 tiz += cri * tqz
 ${partner}
 """
-TANGENTIAL_PARTNER = "reaction[k, ${o}] = crj * tqx\nreaction[k, ${o1}] = crj * tqy\nreaction[k, ${o2}] = crj * tqz\n"
+TANGENTIAL_PARTNER = "reaction[q, ${o}] = crj * tqx\nreaction[q, ${o1}] = crj * tqy\nreaction[q, ${o2}] = crj * tqz\n"
 
 RELATIVE_SPIN = {False: "wrelx = wix - omega[j, 0]\nwrely = wiy - omega[j, 1]\nwrelz = wiz - omega[j, 2]\n",
                  True: "wrelx = wix\nwrely = wiy\nwrelz = wiz\n"}
@@ -170,11 +170,11 @@ tiy -= rty
 tiz -= rtz
 ${partner}
 """
-ROLLING_PARTNER = "reaction[k, ${o}] = rtx\nreaction[k, ${o1}] = rty\nreaction[k, ${o2}] = rtz\n"
+ROLLING_PARTNER = "reaction[q, ${o}] = rtx\nreaction[q, ${o1}] = rty\nreaction[q, ${o2}] = rtz\n"
 
 #: j takes the opposite force (Newton's third law): the pair leaves it in its row of `reaction` and j adds it up
 #: in the particle pass; a wall takes it too (the force users can print), collected at the last step of a chunk
-REACTION = {False: "reaction[k, 0] = fx\nreaction[k, 1] = fy\nreaction[k, 2] = fz\n",
+REACTION = {False: "reaction[q, 0] = fx\nreaction[q, 1] = fy\nreaction[q, 2] = fz\n",
             True: "if record:\n    wall_part[i, w, 0] = fx\n    wall_part[i, w, 1] = fy\n    wall_part[i, w, 2] = fz\n"}
 
 PARTICLE_HEAD = """\
@@ -202,8 +202,10 @@ tiz = 0.0
 RESET_HISTORY = "for h in range(${width}):\n    ${target} = 0.0\n"
 
 #: pass 1 of a force evaluation: each listed pair once, by its first particle i (i < j). i's own sum goes into
-#: f[i] and torque[i]; what j takes stays in the pair's row of `reaction` (touch[k] = 1 if in contact). Every
-#: iteration writes only rows of its own particle and its own pairs: no two threads write the same memory.
+#: f[i] and torque[i]; what j takes stays in the pair's row of `reaction` (zeros for a pair not in contact, so
+#: that pass 2 adds every row without a branch: x - (+0.0) and y + (+0.0) leave every sum bitwise as it is,
+#: since sums that start at +0.0 or m g never become -0.0). Every iteration writes only rows of its own
+#: particle and its own pairs: no two threads write the same memory.
 PAIR_FORCES = '''\
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
 def pair_forces(s, n, nbr, pp, dt, char_vel, box):
@@ -212,7 +214,7 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box):
     nbr_start = nbr.start
     nbr_j = nbr.j
     pair_hist = nbr.hist
-    touch = nbr.touch
+    rslot = nbr.rslot
     reaction = nbr.reaction
     for i in prange(n):
         ${particle_head}
@@ -225,11 +227,12 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box):
             rsq = dx * dx + dy * dy + dz * dz
             rj = radius[j]
             radsum = ri + rj
+            q = rslot[k]
             if rsq >= radsum * radsum:
                 ${reset_history}
-                touch[k] = 0
+                for h in range(${reaction_width}):
+                    reaction[q, h] = 0.0
                 continue
-            touch[k] = 1
             r = sqrt(rsq)
             enx = dx / r
             eny = dy / r
@@ -341,8 +344,6 @@ def particle_pass(s, n, nbr, walls, pp, dt, char_vel, gravity, kick, drift, reco
     ${unpack}
     ${unpack_walls}
     rstart = nbr.rstart
-    rk = nbr.rk
-    touch = nbr.touch
     reaction = nbr.reaction
     half_dt = 0.5 * dt
     need = 0
@@ -353,12 +354,10 @@ def particle_pass(s, n, nbr, walls, pp, dt, char_vel, gravity, kick, drift, reco
         gty = 0.0
         gtz = 0.0
         for q in range(rstart[i], rstart[i + 1]):
-            k = rk[q]
-            if touch[k]:
-                gfx -= reaction[k, 0]
-                gfy -= reaction[k, 1]
-                gfz -= reaction[k, 2]
-                ${gather_torque}
+            gfx -= reaction[q, 0]
+            gfy -= reaction[q, 1]
+            gfz -= reaction[q, 2]
+            ${gather_torque}
         f[i, 0] = gfx + f[i, 0]
         f[i, 1] = gfy + f[i, 1]
         f[i, 2] = gfz + f[i, 2]
@@ -557,7 +556,8 @@ def generate_source(c: Combination) -> str:
                        for a, name in enumerate("xyz") if c.periodic[a])
     unpack = _unpack("s", FIELD_NAMES)
     pair_forces = render(PAIR_FORCES, unpack=unpack, particle_head=PARTICLE_HEAD, periodic_image=periodic,
-                         reset_history=_reset_history(c, False), contact=contact_code(c, False))
+                         reset_history=_reset_history(c, False), reaction_width=str(c.reaction_width),
+                         contact=contact_code(c, False))
     has_walls = c.planes or c.cylinders
     walls = unpack_walls = ""
     if has_walls:
@@ -568,7 +568,7 @@ def generate_source(c: Combination) -> str:
         unpack_walls = _unpack("walls", WALL_FIELDS[:-1]) + "nplanes = plane_axis.shape[0]\n"
     clear = ("gfx = mass[i] * gravity[0]\ngfy = mass[i] * gravity[1]\ngfz = mass[i] * gravity[2]\n"
              if c.gravity else "gfx = 0.0\ngfy = 0.0\ngfz = 0.0\n")
-    gather_torque = "".join(f"gtx += reaction[k, {o}]\ngty += reaction[k, {o + 1}]\ngtz += reaction[k, {o + 2}]\n"
+    gather_torque = "".join(f"gtx += reaction[q, {o}]\ngty += reaction[q, {o + 1}]\ngtz += reaction[q, {o + 2}]\n"
                             for name, o in c.reaction_columns().items() if name != "force")
     particle_pass = render(PARTICLE_PASS, unpack=unpack, unpack_walls=unpack_walls, clear=clear,
                            gather_torque=gather_torque, walls=walls, drift=DRIFT)

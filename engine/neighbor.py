@@ -3,8 +3,9 @@
 The list is a *half* list in CSR form: pair k = (i, j[k]) for start[i] <= k < start[i+1], always with i < j and
 j increasing, so each pair is evaluated once (by i). So that no two threads ever write the same memory, i does
 not add the reaction to j's force itself: it leaves it in the pair's row of `reaction`, and j collects the rows
-of the pairs it belongs to through the reverse index (rstart, rk: the pairs (i, j) of each j, i increasing),
-in the order a serial loop would have added them. Forces are therefore bitwise the same on any number of
+of the pairs it belongs to, in the order a serial loop would have added them. The rows are ordered by partner
+(rows rstart[j]..rstart[j+1] are the pairs (i, j), i increasing; pair k writes row rslot[k]), so j reads its
+rows in one sweep. Forces are therefore bitwise the same on any number of
 threads, and the same as a serial half-list loop (engine/kernels.py).
 
 A rebuild (1) wraps periodic coordinates, (2) removes particles that left a fixed box, (3) re-orders the
@@ -26,10 +27,10 @@ from .state import reorder
 PARALLEL = dict(prange=True, numpy=False, reduction=False, setitem=False, stencil=False, comprehension=False,
                 fusion=False)
 
-#: start (n+1), j (int32): the half list; hist (pairs, width): contact history; rstart (n+1), rk (pairs):
-#: the reverse index; touch (pairs, uint8): 1 where the pair is in contact this step; reaction (pairs, width):
-#: what j takes from the pair this step (force, and torques)
-NeighborList = namedtuple("NeighborList", ["start", "j", "hist", "rstart", "rk", "touch", "reaction"])
+#: start (n+1), j (int32): the half list; hist (pairs, width): contact history; reaction (pairs, width): what j
+#: takes from each pair this step (force, and torques; zero when not in contact), in partner order: rows
+#: rstart[p]..rstart[p+1] (rstart: n+1) belong to the pairs (i, p), i increasing; rslot[k] is the row of pair k
+NeighborList = namedtuple("NeighborList", ["start", "j", "hist", "rstart", "rslot", "reaction"])
 #: particles removed for leaving a fixed axis' range: ids, steps, and count[0] entries used
 LostParticles = namedtuple("LostParticles", ["ids", "steps", "count"])
 
@@ -39,14 +40,13 @@ MAX_CELLS_PER_PARTICLE = 8
 
 def empty_list(history: int = 0, reaction: int = 3) -> NeighborList:
     return NeighborList(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros((0, history)),
-                        np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.uint8),
-                        np.zeros((0, reaction)))
+                        np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, reaction)))
 
 
 def from_half_list(start, j, hist, n: int, reaction: int) -> NeighborList:
     """The full record of a half list (as restart files store it) for n particles."""
-    rstart, rk = reverse_index(start, j, n)
-    return NeighborList(start, j, hist, rstart, rk, np.zeros(len(j), dtype=np.uint8), np.zeros((len(j), reaction)))
+    rstart, rslot = reverse_index(start, j, n)
+    return NeighborList(start, j, hist, rstart, rslot, np.zeros((len(j), reaction)))
 
 
 def lost_record(capacity: int) -> LostParticles:
@@ -55,7 +55,8 @@ def lost_record(capacity: int) -> LostParticles:
 
 @njit(cache=True, error_model="numpy")
 def reverse_index(start, j, n):
-    """(rstart, rk): for each particle p, the pairs k with j[k] == p, in increasing k (so increasing i)."""
+    """(rstart, rslot): rows rstart[p]..rstart[p+1] for the pairs k with j[k] == p in increasing k (so
+    increasing i); rslot[k] the row of pair k."""
     rstart = np.zeros(n + 1, dtype=np.int64)
     m = j.shape[0]
     for k in range(m):
@@ -63,12 +64,12 @@ def reverse_index(start, j, n):
     for p in range(n):
         rstart[p + 1] += rstart[p]
     fill = rstart[:-1].copy()
-    rk = np.empty(m, dtype=np.int64)
+    rslot = np.empty(m, dtype=np.int64)
     for k in range(m):
         p = j[k]
-        rk[fill[p]] = k
+        rslot[k] = fill[p]
         fill[p] += 1
-    return rstart, rk
+    return rstart, rslot
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -201,11 +202,12 @@ def _compact(found, slot, start, new_j):
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _carry_history(order, new_index, old, new_start, new_j, new_hist):
+def _carry_history(order, new_index, old, old_pair, new_start, new_j, new_hist):
     """Each new pair takes the history of the same pair in the old list (negated when i and j swapped roles).
 
     New particle p (old index order[p]) owns its pairs with larger new indices; it finds them among its old
-    pairs as owner (old row) and as partner (old reverse index). Every new row is written by its owner only.
+    pairs as owner (old row) and as partner (old_pair: the pair k of each partner-ordered row). Every new row
+    is written by its owner only.
     """
     n_old = old.start.shape[0] - 1
     width = new_hist.shape[1]
@@ -222,7 +224,7 @@ def _carry_history(order, new_index, old, new_start, new_j, new_hist):
                     for h in range(width):
                         new_hist[new_start[p] + pos, h] = old.hist[k, h]
         for q in range(old.rstart[op], old.rstart[op + 1]):
-            k = old.rk[q]
+            k = old_pair[q]
             a = new_index[_owner(old.start, k)]
             if a > p:
                 pos = _find(row, a)
@@ -343,11 +345,13 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost):
     width = nbr.hist.shape[1]
     new_hist = np.zeros((m if width > 0 else 0, width))
     if width > 0:
-        _carry_history(order, new_index, nbr, new_start, new_j, new_hist)
-    rstart, rk = reverse_index(new_start, new_j, nk)
+        old_pair = np.empty(nbr.rslot.shape[0], dtype=np.int64)  # the pair of each row (partner order)
+        for k in range(old_pair.shape[0]):
+            old_pair[nbr.rslot[k]] = k
+        _carry_history(order, new_index, nbr, old_pair, new_start, new_j, new_hist)
+    rstart, rslot = reverse_index(new_start, new_j, nk)
     _copy_positions(x, s.x_build, nk)
-    return nk, NeighborList(new_start, new_j, new_hist, rstart, rk, np.zeros(m, dtype=np.uint8),
-                            np.empty((m, nbr.reaction.shape[1])))
+    return nk, NeighborList(new_start, new_j, new_hist, rstart, rslot, np.empty((m, nbr.reaction.shape[1])))
 
 
 @njit(cache=True, error_model="numpy")

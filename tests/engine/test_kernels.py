@@ -64,5 +64,5 @@ def test_the_generated_loops_are_parallel_and_thread_safe_by_construction():
     source = generate_source(Combination(normal="hertz", tangential="history", rolling="cdt", planes=True))
     assert source.count("in prange(") == 3
     assert "f[j" not in source and "torque[j" not in source
-    assert "reaction[k, 3] = crj * tqx" in source and "reaction[k, 6] = rtx" in source
+    assert "reaction[q, 3] = crj * tqx" in source and "reaction[q, 6] = rtx" in source
     assert kernels.Constants._fields == ("dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin")

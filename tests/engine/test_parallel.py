@@ -133,11 +133,13 @@ def test_neighbor_list_matches_brute_force_after_reordering_and_loss(periodic):
         # every field moved with its particle
         assert np.array_equal(np.sort(s.pid), np.arange(expected_lost + 1, n + 1))
         assert np.array_equal(s.x_build, s.x) and np.all(s.mass == 1.0)
-        # the reverse index lists, for each j, its pairs in increasing i
+        # the reaction rows of each partner p are the pairs (i, p), in increasing i
+        pair_of_row = np.empty(len(nbr.j), dtype=np.int64)
+        pair_of_row[nbr.rslot] = np.arange(len(nbr.j))
         for p in range(kept):
-            ks = nbr.rk[nbr.rstart[p]:nbr.rstart[p + 1]]
+            ks = pair_of_row[nbr.rstart[p]:nbr.rstart[p + 1]]
             assert np.all(nbr.j[ks] == p) and np.all(np.diff(ks) > 0)
-        assert nbr.rstart[-1] == len(nbr.j)
+        assert nbr.rstart[-1] == len(nbr.j) and np.array_equal(np.sort(nbr.rslot), np.arange(len(nbr.j)))
         # history antisymmetric in (i, j): id_i - id_j; after moving the particles and rebuilding, each pair
         # still holds it for its (possibly swapped) owner
         old_pairs = listed_pairs(s, nbr, kept)
