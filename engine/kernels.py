@@ -42,7 +42,7 @@ ROLLING_MODELS = choices("rolling")
 
 @dataclass(frozen=True)
 class Combination:
-    """Everything that changes the compiled code of a scene."""
+    """Everything that changes the compiled code of a scene (parallel: loops compiled for several threads)."""
 
     normal: str = "hertz"
     tangential: str = "history"
@@ -54,6 +54,7 @@ class Combination:
     cylinders: bool = False
     gravity: bool = False
     periodic: tuple = (False, False, False)
+    parallel: bool = False
 
     def law(self, submodel: str):
         """The law named for a submodel, or None ('none')."""
@@ -581,8 +582,11 @@ def generate_source(c: Combination) -> str:
         from .contact_laws import slip_velocity
         called.append(slip_velocity)
     imports = "".join(f"from {fn.__module__} import {fn.__name__}\n" for fn in called if fn.__name__ + "(" in body)
-    return render(MODULE, combination=repr(c), imports=imports, pair_forces=pair_forces,
-                  particle_pass=particle_pass, step_loop=step_loop)
+    source = render(MODULE, combination=repr(c), imports=imports, pair_forces=pair_forces,
+                    particle_pass=particle_pass, step_loop=step_loop)
+    # one thread: the same loops compiled serially (prange is range there), the same operations in the same
+    # order, so the same bytes
+    return source if c.parallel else source.replace("parallel=PARALLEL", "parallel=False")
 
 
 def parameter_table(c: Combination, materials: dict, interactions: dict, ntypes: int):

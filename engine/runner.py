@@ -20,10 +20,11 @@ from .script import Fields
 from .walls import wall_set
 
 
-def combination(sim) -> Combination:
-    """The compiled code this scene needs: its submodels, wall shapes, gravity and periodic axes."""
+def combination(sim, parallel: bool = False) -> Combination:
+    """The compiled code this scene needs: its submodels, wall shapes, gravity and periodic axes, and whether
+    its loops are compiled for several threads."""
     m = sim.model
-    return Combination(normal=m["normal"], tangential=m["tangential"], cohesion=m["cohesion"],
+    return Combination(parallel=parallel, normal=m["normal"], tangential=m["tangential"], cohesion=m["cohesion"],
                        rolling=m["rolling"], limit_force=m["limit_force"],
                        tangential_damping=m["tangential_damping"],
                        planes=any(w["shape"] == "plane" for w in sim.walls),
@@ -88,7 +89,10 @@ def run(sim, fields: Fields):
     """The `run` command: `steps` time steps."""
     steps = fields.integer("steps", required=True, minimum=0)
     check_ready(sim, fields)
-    combo = combination(sim)
+    # the thread count of the whole run, from the particles at its start: one thread compiles serial loops
+    # (quicker to compile, no thread wake-ups); the bytes are the same either way
+    threads = thread_pool.use(sim.n, sim.threads)
+    combo = combination(sim, parallel=threads > 1)
     t0 = time.perf_counter()
     kernel = build_kernel(combo)
     fit_history(sim, combo)
@@ -101,7 +105,6 @@ def run(sim, fields: Fields):
                           gravity=sim.gravity_vector(), lo=sim.lo, hi=sim.hi, periodic=sim.periodic, skin=sim.skin)
     started_with = sim.n
     created = sim.dirty
-    threads = thread_pool.use(sim.n, sim.threads)
     if sim.dirty:
         lost = lost_record(sim.n)
         n, sim.nbr = kernel.setup(sim.state, sim.n, sim.nbr, walls, pp, constants, sim.step, lost)
@@ -141,7 +144,6 @@ def run(sim, fields: Fields):
     while sim.step < end:
         stop = next_stop(sim, end)
         n = sim.n
-        threads = thread_pool.use(n, sim.threads)
         lost = lost_record(n)
         status, bad, done, rebuilt, kept, sim.nbr = kernel.run_steps(
             sim.state, n, sim.nbr, walls, pp, constants, sim.step, stop - sim.step, timers, lost)

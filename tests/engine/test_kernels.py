@@ -1,4 +1,5 @@
 """The kernel builder: contact laws as data, templates with named slots, only the named effects compiled."""
+import dataclasses
 import math
 
 import numpy as np
@@ -61,8 +62,11 @@ def test_parameter_table_leaves_pairs_without_interaction_nan():
 def test_the_generated_loops_are_parallel_and_thread_safe_by_construction():
     """Only the two force passes, the drift and the rebuild's helpers are prange loops; no loop body writes
     another particle's force (the partner's share goes to its pair row)."""
-    source = generate_source(Combination(normal="hertz", tangential="history", rolling="cdt", planes=True))
-    assert source.count("in prange(") == 3
+    combination = Combination(normal="hertz", tangential="history", rolling="cdt", planes=True, parallel=True)
+    source = generate_source(combination)
+    assert source.count("in prange(") == 3 and source.count("parallel=PARALLEL") == 3
+    serial = generate_source(dataclasses.replace(combination, parallel=False))
+    assert serial == source.replace("parallel=PARALLEL", "parallel=False").replace("parallel=True", "parallel=False")
     assert "f[j" not in source and "torque[j" not in source
     assert "reaction[q, 3] = crj * tqx" in source and "reaction[q, 6] = rtx" in source
     assert kernels.Constants._fields == ("dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin")
