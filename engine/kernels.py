@@ -80,7 +80,10 @@ class Combination:
 
     def reaction_columns(self) -> dict:
         """What a pair leaves for its partner j: the force (3 columns) and, per submodel that turns j, its torque
-        contribution (3 columns) -> first column in the neighbor list's `reaction` rows."""
+        contribution (3 columns) -> first column in the neighbor list's `reaction` rows. None on one thread
+        (the pair adds to j directly)."""
+        if not self.parallel:
+            return {}
         columns = {"force": 0}
         for kind in ("tangential", "rolling"):
             if self.law(kind) is not None:
@@ -159,7 +162,8 @@ tiy += cri * tqy
 tiz += cri * tqz
 ${partner}
 """
-TANGENTIAL_PARTNER = "reaction[q, ${o}] = crj * tqx\nreaction[q, ${o1}] = crj * tqy\nreaction[q, ${o2}] = crj * tqz\n"
+TANGENTIAL_PARTNER = {True: "reaction[q, ${o}] = crj * tqx\nreaction[q, ${o1}] = crj * tqy\nreaction[q, ${o2}] = crj * tqz\n",
+                      False: "torque[j, 0] += crj * tqx\ntorque[j, 1] += crj * tqy\ntorque[j, 2] += crj * tqz\n"}
 
 RELATIVE_SPIN = {False: "wrelx = wix - omega[j, 0]\nwrely = wiy - omega[j, 1]\nwrelz = wiz - omega[j, 2]\n",
                  True: "wrelx = wix\nwrely = wiy\nwrelz = wiz\n"}
@@ -171,12 +175,16 @@ tiy -= rty
 tiz -= rtz
 ${partner}
 """
-ROLLING_PARTNER = "reaction[q, ${o}] = rtx\nreaction[q, ${o1}] = rty\nreaction[q, ${o2}] = rtz\n"
+ROLLING_PARTNER = {True: "reaction[q, ${o}] = rtx\nreaction[q, ${o1}] = rty\nreaction[q, ${o2}] = rtz\n",
+                   False: "torque[j, 0] += rtx\ntorque[j, 1] += rty\ntorque[j, 2] += rtz\n"}
 
-#: j takes the opposite force (Newton's third law): the pair leaves it in its row of `reaction` and j adds it up
-#: in the particle pass; a wall takes it too (the force users can print), collected at the last step of a chunk
-REACTION = {False: "reaction[q, 0] = fx\nreaction[q, 1] = fy\nreaction[q, 2] = fz\n",
-            True: "if record:\n    wall_part[i, w, 0] = fx\n    wall_part[i, w, 1] = fy\n    wall_part[i, w, 2] = fz\n"}
+#: j takes the opposite force (Newton's third law). On several threads the pair leaves it in its row of
+#: `reaction` and j adds it up in the particle pass; on one thread i subtracts it from f[j] at once - the same
+#: operations on the same sums in the same order, so the same bytes. A wall takes it too (the force users can
+#: print), collected at the last step of a chunk.
+PAIR_REACTION = {True: "reaction[q, 0] = fx\nreaction[q, 1] = fy\nreaction[q, 2] = fz\n",
+                 False: "f[j, 0] -= fx\nf[j, 1] -= fy\nf[j, 2] -= fz\n"}
+WALL_REACTION = "if record:\n    wall_part[i, w, 0] = fx\n    wall_part[i, w, 1] = fy\n    wall_part[i, w, 2] = fz\n"
 
 PARTICLE_HEAD = """\
 xi0 = x[i, 0]
@@ -202,15 +210,16 @@ tiz = 0.0
 #: contact history is reset as soon as a contact opens (physically clean; see engine/README.md)
 RESET_HISTORY = "for h in range(${width}):\n    ${target} = 0.0\n"
 
-#: pass 1 of a force evaluation: each listed pair once, by its first particle i (i < j). i's own sum goes into
-#: f[i] and torque[i]; what j takes stays in the pair's row of `reaction` (zeros for a pair not in contact, so
-#: that pass 2 adds every row without a branch: x - (+0.0) and y + (+0.0) leave every sum bitwise as it is,
-#: since sums that start at +0.0 or m g never become -0.0). Every iteration writes only rows of its own
-#: particle and its own pairs: no two threads write the same memory.
+#: pass 1 of a force evaluation: each listed pair once, by its first particle i (i < j). On several threads
+#: i's own sum goes into f[i] and torque[i] and what j takes stays in the pair's row of `reaction` (zeros for a
+#: pair not in contact, so that pass 2 adds every row without a branch: x - (+0.0) and y + (+0.0) leave every
+#: sum bitwise as it is, since sums that start at +0.0 or m g never become -0.0): every iteration writes only
+#: rows of its own particle and its own pairs, no two threads write the same memory. On one thread i adds to
+#: j directly, in the same order (the former serial loop).
 PAIR_FORCES = '''\
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
 def pair_forces(s, n, nbr, pp, dt, char_vel, box):
-    """Contact forces of the listed pairs (half list: each pair once, j's share left in nbr.reaction)."""
+    """Contact forces of the listed pairs (half list: each pair once, by i < j)."""
     ${unpack}
     nbr_start = nbr.start
     nbr_j = nbr.j
@@ -228,11 +237,10 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box):
             rsq = dx * dx + dy * dy + dz * dz
             rj = radius[j]
             radsum = ri + rj
-            q = rslot[k]
+            ${row}
             if rsq >= radsum * radsum:
                 ${reset_history}
-                for h in range(${reaction_width}):
-                    reaction[q, h] = 0.0
+                ${zero_row}
                 continue
             r = sqrt(rsq)
             enx = dx / r
@@ -248,12 +256,7 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box):
             vrz = viz - v[j, 2]
             vn = vrx * enx + vry * eny + vrz * enz
             ${contact}
-        f[i, 0] = fix
-        f[i, 1] = fiy
-        f[i, 2] = fiz
-        torque[i, 0] = tix
-        torque[i, 1] = tiy
-        torque[i, 2] = tiz
+        ${own_sum}
 '''
 
 #: a wall has infinite radius and mass (R* = r_i, m* = m_i), its type's material; en points from the wall to
@@ -334,10 +337,10 @@ elif not d2 <= half_skin_sq:
     bad = min(bad, i)
 """
 
-#: pass 2 of a force evaluation, per particle: gravity (F = m g, the first force), minus what the pairs (i, p)
-#: left for p in `reaction` - added in increasing i, exactly the order a serial half-list loop would have
-#: used - plus p's own pair sum, then walls, then the second half kick and (but at a chunk's last step) the
-#: next step's first half kick and drift. Returns (particles beyond skin/2, first non-finite position or n).
+#: pass 2 of a force evaluation, per particle: on several threads gravity (F = m g, the first force), minus
+#: what the pairs (i, p) left for p in `reaction` - added in increasing i, exactly the order of the serial
+#: loop - plus p's own pair sum; then walls, the second half kick and (but at a chunk's last step) the next
+#: step's first half kick and drift. Returns (particles beyond skin/2, first non-finite position or n).
 PARTICLE_PASS = '''\
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
 def particle_pass(s, n, nbr, walls, pp, dt, char_vel, gravity, kick, drift, record, wall_part, half_skin_sq):
@@ -350,21 +353,7 @@ def particle_pass(s, n, nbr, walls, pp, dt, char_vel, gravity, kick, drift, reco
     need = 0
     bad = n
     for i in prange(n):
-        ${clear}
-        gtx = 0.0
-        gty = 0.0
-        gtz = 0.0
-        for q in range(rstart[i], rstart[i + 1]):
-            gfx -= reaction[q, 0]
-            gfy -= reaction[q, 1]
-            gfz -= reaction[q, 2]
-            ${gather_torque}
-        f[i, 0] = gfx + f[i, 0]
-        f[i, 1] = gfy + f[i, 1]
-        f[i, 2] = gfz + f[i, 2]
-        torque[i, 0] = gtx + torque[i, 0]
-        torque[i, 1] = gty + torque[i, 1]
-        torque[i, 2] = gtz + torque[i, 2]
+        ${gather}
         ${walls}
         if kick:
             for a in range(3):
@@ -387,6 +376,44 @@ def drift_pass(s, n, dt, half_skin_sq):
     return need, bad
 '''
 
+#: several threads: gravity (F = m g, the first force), minus what the pairs (i, p) left for p, in increasing i,
+#: plus p's own pair sum (pass 1 put it into f[p] and torque[p])
+GATHER = """\
+${clear}
+gtx = 0.0
+gty = 0.0
+gtz = 0.0
+for q in range(rstart[i], rstart[i + 1]):
+    gfx -= reaction[q, 0]
+    gfy -= reaction[q, 1]
+    gfz -= reaction[q, 2]
+    ${gather_torque}
+f[i, 0] = gfx + f[i, 0]
+f[i, 1] = gfy + f[i, 1]
+f[i, 2] = gfz + f[i, 2]
+torque[i, 0] = gtx + torque[i, 0]
+torque[i, 1] = gty + torque[i, 1]
+torque[i, 2] = gtz + torque[i, 2]
+"""
+#: the end of particle i's pairs: its own sum, stored (several threads) or added to what the pairs (i', i),
+#: i' < i, already subtracted from f[i] (one thread)
+OWN_SUM = {True: "f[i, 0] = fix\nf[i, 1] = fiy\nf[i, 2] = fiz\ntorque[i, 0] = tix\ntorque[i, 1] = tiy\ntorque[i, 2] = tiz\n",
+           False: "f[i, 0] += fix\nf[i, 1] += fiy\nf[i, 2] += fiz\ntorque[i, 0] += tix\ntorque[i, 1] += tiy\n"
+                  "torque[i, 2] += tiz\n"}
+#: one thread: forces start at gravity (F = m g) before the pairs add to them
+CLEAR_FORCES = '''\
+@njit(cache=True, error_model="numpy")
+def clear_forces(s, n, gravity):
+    f = s.f
+    torque = s.torque
+    mass = s.mass
+    for i in range(n):
+        ${clear}
+        torque[i, 0] = 0.0
+        torque[i, 1] = 0.0
+        torque[i, 2] = 0.0
+'''
+
 #: the force the particles exert on each wall: the contributions of the particles in increasing index (the
 #: order of a serial loop), only at steps where Python reads it
 WALL_FORCE_SUM = """\
@@ -407,6 +434,7 @@ def setup(s, n, nbr, walls, pp, c, step, lost):
     ${constants}
     box = hi - lo
     n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)
+    ${clear_forces}
     pair_forces(s, n, nbr, pp, dt, char_vel, box)
     record = True
     wall_part = np.zeros((n, ${nwalls}, 3))
@@ -447,6 +475,7 @@ def run_steps(s, n, nbr, walls, pp, c, step0, nsteps, timers, lost):
             n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)
             rebuilds += 1
         t2 = now()
+        ${clear_forces}
         pair_forces(s, n, nbr, pp, dt, char_vel, box)
         t3 = now()
         record = k_step == nsteps - 1
@@ -498,6 +527,9 @@ ${pair_forces}
 ${particle_pass}
 
 
+${clear_forces}
+
+
 ${step_loop}
 '''
 
@@ -527,9 +559,11 @@ def contact_code(c: Combination, wall: bool) -> str:
     columns = c.reaction_columns()
     tangential_code = rolling_code = ""
 
-    def partner(template, submodel):
-        o = columns[submodel]
-        return "" if wall else render(template, o=str(o), o1=str(o + 1), o2=str(o + 2))
+    def partner(templates, submodel):
+        if wall:
+            return ""
+        o = columns.get(submodel, 0)
+        return render(templates[c.parallel], o=str(o), o1=str(o + 1), o2=str(o + 2))
 
     if tangential is not None:
         tangential_code = render(TANGENTIAL, damping="" if c.tangential_damping else "gt = 0.0",
@@ -541,7 +575,8 @@ def contact_code(c: Combination, wall: bool) -> str:
     return render(CONTACT, normal=_law_call(c, c.law("normal"), wall),
                   limit_force="fn = max(fn, 0.0)" if c.limit_force else "",
                   cohesion=_law_call(c, cohesion, wall) if cohesion is not None else "",
-                  tangential=tangential_code, rolling=rolling_code, reaction=REACTION[wall])
+                  tangential=tangential_code, rolling=rolling_code,
+                  reaction=WALL_REACTION if wall else PAIR_REACTION[c.parallel])
 
 
 def _reset_history(c: Combination, wall: bool) -> str:
@@ -556,9 +591,11 @@ def generate_source(c: Combination) -> str:
     periodic = "".join(f"d{name} -= box[{a}] * np.rint(d{name} / box[{a}])\n"
                        for a, name in enumerate("xyz") if c.periodic[a])
     unpack = _unpack("s", FIELD_NAMES)
+    rows = c.parallel  # several threads: pair rows for the partner, gathered in the particle pass
     pair_forces = render(PAIR_FORCES, unpack=unpack, particle_head=PARTICLE_HEAD, periodic_image=periodic,
-                         reset_history=_reset_history(c, False), reaction_width=str(c.reaction_width),
-                         contact=contact_code(c, False))
+                         row="q = rslot[k]" if rows else "", reset_history=_reset_history(c, False),
+                         zero_row=f"for h in range({c.reaction_width}):\n    reaction[q, h] = 0.0" if rows else "",
+                         contact=contact_code(c, False), own_sum=OWN_SUM[rows])
     has_walls = c.planes or c.cylinders
     walls = unpack_walls = ""
     if has_walls:
@@ -567,14 +604,23 @@ def generate_source(c: Combination) -> str:
                        planes=render(PLANE_CONTACTS, reset_history=reset, contact=contact) if c.planes else "",
                        cylinders=render(CYLINDER_CONTACTS, reset_history=reset, contact=contact) if c.cylinders else "")
         unpack_walls = _unpack("walls", WALL_FIELDS[:-1]) + "nplanes = plane_axis.shape[0]\n"
-    clear = ("gfx = mass[i] * gravity[0]\ngfy = mass[i] * gravity[1]\ngfz = mass[i] * gravity[2]\n"
-             if c.gravity else "gfx = 0.0\ngfy = 0.0\ngfz = 0.0\n")
-    gather_torque = "".join(f"gtx += reaction[q, {o}]\ngty += reaction[q, {o + 1}]\ngtz += reaction[q, {o + 2}]\n"
-                            for name, o in c.reaction_columns().items() if name != "force")
-    particle_pass = render(PARTICLE_PASS, unpack=unpack, unpack_walls=unpack_walls, clear=clear,
-                           gather_torque=gather_torque, walls=walls, drift=DRIFT)
+    if c.gravity:
+        gravity_force = "mass[i] * gravity[0]", "mass[i] * gravity[1]", "mass[i] * gravity[2]"
+    else:
+        gravity_force = "0.0", "0.0", "0.0"
+    gather = clear_forces = clear_call = ""
+    if rows:
+        gather_torque = "".join(f"gtx += reaction[q, {o}]\ngty += reaction[q, {o + 1}]\ngtz += reaction[q, {o + 2}]\n"
+                                for name, o in c.reaction_columns().items() if name != "force")
+        gather = render(GATHER, clear="".join(f"gf{a} = {g}\n" for a, g in zip("xyz", gravity_force)),
+                        gather_torque=gather_torque)
+    else:
+        clear_forces = render(CLEAR_FORCES, clear="".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)))
+        clear_call = "clear_forces(s, n, gravity)"
+    particle_pass = render(PARTICLE_PASS, unpack=unpack, unpack_walls=unpack_walls, gather=gather, walls=walls,
+                           drift=DRIFT)
     step_loop = render(STEP_LOOP, constants=CONSTANTS, move_planes=MOVE_PLANES if c.planes else "",
-                       nwalls="walls.force.shape[0]" if has_walls else "0",
+                       nwalls="walls.force.shape[0]" if has_walls else "0", clear_forces=clear_call,
                        wall_force_sum=WALL_FORCE_SUM if has_walls else "")
     called = sorted({fn for law in c.laws() for fn in law.functions}, key=lambda fn: fn.__name__)
     body = pair_forces + particle_pass + step_loop
@@ -583,9 +629,8 @@ def generate_source(c: Combination) -> str:
         called.append(slip_velocity)
     imports = "".join(f"from {fn.__module__} import {fn.__name__}\n" for fn in called if fn.__name__ + "(" in body)
     source = render(MODULE, combination=repr(c), imports=imports, pair_forces=pair_forces,
-                    particle_pass=particle_pass, step_loop=step_loop)
-    # one thread: the same loops compiled serially (prange is range there), the same operations in the same
-    # order, so the same bytes
+                    particle_pass=particle_pass, clear_forces=clear_forces, step_loop=step_loop)
+    # one thread: the loops compiled serially (prange is range there)
     return source if c.parallel else source.replace("parallel=PARALLEL", "parallel=False")
 
 
