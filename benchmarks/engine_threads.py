@@ -1,6 +1,7 @@
 """Stepping speed of engine builds and thread counts side by side on the settling scene (issue 11).
 
-The scene of engine/examples/settling.json (N spheres of r = 1.5 mm packed at random into a box of five plane
+The scene of engine/examples/settling_box.json (settling.json with the domain as wide as the walls, so that
+no sphere is lost at 100,000 and more: N spheres of r = 1.5 mm packed at random into a box of five plane
 walls, Hertz + tangential history, gravity, dt = 1e-5 s): SETTLE steps of pouring and settling, then MEASURE
 steps on the bed. Each (build, threads) configuration runs the same scene; configurations alternate within
 each repetition so that the machine's load hits all of them alike. A build is a folder holding engine/ (an
@@ -26,7 +27,7 @@ import tempfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-SCENE = REPO / "engine" / "examples" / "settling.json"
+SCENE = REPO / "engine" / "examples" / "settling_box.json"
 RADIUS = 0.0015  # m, as in the scene
 LOOP = re.compile(r"Loop time of ([\d.e+-]+) s for (\d+) steps")
 
