@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from . import guards, memory, modifiers, quantities, runner
+from . import guards, memory, modifiers, quantities, regions, runner
 from . import state as particle_state
 from .errors import InputError, RunFailure
 from .kernels import COHESION_MODELS, NORMAL_MODELS, ROLLING_MODELS, TANGENTIAL_MODELS
@@ -190,27 +190,17 @@ def radii_of(fields: Fields, count: int, rng=None) -> np.ndarray:
     return rmin + (rmax - rmin) * rng.random(count)
 
 
-def region_of(fields: Fields) -> dict:
-    region = fields.mapping("region", required=True)
-    sub = Fields(region, fields.where + ", region")
-    shape = sub.string("shape", required=True, choices=("box", "cylinder"))
-    out = {"shape": shape}
-    if shape == "box":
-        out["lo"] = sub.vector("lo", required=True)
-        out["hi"] = sub.vector("hi", required=True)
-        if any(h <= l for l, h in zip(out["lo"], out["hi"])):
-            raise sub.error("hi", "must be greater than 'lo' on every axis")
-    else:
-        out["center"] = sub.vector("center", 2, required=True)
-        out["radius"] = sub.number("radius", required=True, positive=True)
-        out["z"] = sub.vector("z", 2, required=True)
-        if out["z"][1] <= out["z"][0]:
-            raise sub.error("z", "must be [z_low, z_high] with z_high > z_low")
-    sub.finish()
-    lo, hi = region_bounds(out)
-    if not np.all(np.isfinite(hi - lo)):
-        raise fields.error("region", "has an extent beyond double precision")
-    return out
+def region_of(sim, fields: Fields) -> dict:
+    """The `region` field of a create: a region name or an inline region object (engine.regions)."""
+    return regions.region_of(fields, sim.regions)
+
+
+def create_region(sim, fields: Fields):
+    """A named region (box or z-cylinder) that later fields name instead of an inline region object."""
+    name = fields.string("name", required=True)
+    if name in sim.regions:
+        raise fields.error("name", f"'{name}' is already a region")
+    sim.regions[name] = regions.parse(fields)
 
 
 def create_particle(sim, fields: Fields):
@@ -228,7 +218,7 @@ def create_lattice(sim, fields: Fields):
     if spacing < 2 * r:
         sim.log.warning(f"{fields.where}: lattice spacing {spacing:g} m < 2 radius: neighbors start "
                         f"with an overlap of {2 * r - spacing:g} m")
-    region = region_of(fields)
+    region = region_of(sim, fields)
     sites = memory.lattice_sites(*region_bounds(region), spacing)
     check_memory(sim, fields, "spacing", sites, "gives a lattice of up to", grid_sites=sites)
     points = lattice_points(region, spacing, r)
@@ -242,7 +232,7 @@ def create_random_packing(sim, fields: Fields):
     count = fields.integer("count", required=True, minimum=1)
     seed = fields.integer("seed", required=True, minimum=0)
     attempts = fields.integer("max_attempts", 200, minimum=1)
-    region = region_of(fields)
+    region = region_of(sim, fields)
     check_memory(sim, fields, "count", count, "asks for", attempts=attempts)
     rng = np.random.Generator(np.random.PCG64([seed, 1]))
     radii = radii_of(fields, count, rng)
@@ -356,7 +346,7 @@ def set_property(sim, fields: Fields):
 CREATE = {"domain": create_domain, "material": create_material, "interaction": create_interaction,
           "contact_model": create_contact_model, "wall": create_wall, "particle": create_particle,
           "lattice": create_lattice, "random_packing": create_random_packing, "modifier": create_modifier,
-          "restart": create_restart}
+          "restart": create_restart, "region": create_region}
 SET = {"timestep": set_timestep, "skin": set_skin, "thermo": set_thermo, "timestep_check": set_timestep_check,
        "restart": set_restart, "velocity": set_velocity}
 COMMANDS = {"create": create, "get": get, "set": set_property, "fix": fix, "unfix": unfix, "run": runner.run}

@@ -38,6 +38,7 @@ class Simulation:
         self.interactions: dict[tuple, dict] = {}  # (type a <= type b) -> restitution, friction, ...
         self.model: dict | None = None  # the contact model's submodels and options
         self.walls: list[dict] = []  # planes first, then cylinders
+        self.regions: dict[str, dict] = {}  # name -> region (engine.regions), from create region
         self.plane_pos = np.zeros(0)  # m, moves with the planes' axial velocity
         self.wall_force = np.zeros((0, 3))  # N, on each wall (planes, then cylinders) at the last step
         self.state = particle_state.empty()
