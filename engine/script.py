@@ -3,13 +3,19 @@
 A script is a JSON list of objects, each with a ``command`` (create, get, set, fix, unfix, run) and fields.
 ``${NAME}`` anywhere in a string is replaced by the value given with ``-var NAME VALUE``; a string that held
 a variable becomes a number when the filled-in text parses as one (``"${N}"``, ``"-${HALF_WIDTH}"``).
+``${...}`` holding more than a name is an arithmetic expression over the variables (``"${0.5*D}"``,
+``"-${W/2}"``), evaluated with simpleeval restricted to numbers (`evaluate_expression`).
 """
 from __future__ import annotations
 
+import ast
 import json
 import math
+import operator
 import re
 from pathlib import Path
+
+import simpleeval
 
 from .errors import InputError
 
@@ -18,6 +24,20 @@ COMMANDS = ("create", "get", "set", "fix", "unfix", "run")
 #: step exactly representable as the double a thermo file prints
 MAX_INTEGER = 2 ** 53
 _VARIABLE = re.compile(r"\$\{([A-Za-z_][A-Za-z0-9_]*)\}")
+#: ${...} with anything but braces inside: a plain name (text substitution) or an expression
+_BRACED = re.compile(r"\$\{([^{}]*)\}")
+
+#: what an expression may use: arithmetic on numbers, these functions and pi (simpleeval evaluates the AST
+#: with exactly these; comparisons, bit operations, strings, attributes and subscripts are refused)
+EXPRESSION_OPERATORS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
+                        ast.Div: operator.truediv, ast.FloorDiv: operator.floordiv, ast.Mod: operator.mod,
+                        ast.Pow: simpleeval.safe_power, ast.USub: operator.neg, ast.UAdd: operator.pos}
+EXPRESSION_FUNCTIONS = {"sqrt": math.sqrt, "sin": math.sin, "cos": math.cos, "tan": math.tan, "exp": math.exp,
+                        "log": math.log, "min": min, "max": max, "abs": abs, "floor": math.floor,
+                        "ceil": math.ceil, "round": round}
+EXPRESSION_CONSTANTS = {"pi": math.pi}
+_ALLOWED = (f"only numbers, variables, + - * / // % ** ( ), {', '.join(EXPRESSION_FUNCTIONS)} and pi are "
+            "allowed")
 
 
 def _number_or_text(text: str):
@@ -29,8 +49,86 @@ def _number_or_text(text: str):
     return text
 
 
+def _operand_value(name: str, variables: dict[str, str], expression: str, where: str):
+    """The number a name stands for in an expression: a -var variable (which must read as a number) or pi."""
+    if name in variables:
+        value = _number_or_text(variables[name])
+        if isinstance(value, str) or (isinstance(value, float) and not math.isfinite(value)):
+            raise InputError(f"{where}: expression '${{{expression}}}': variable {name} = '{variables[name]}' "
+                             "is not a finite number")
+        return value
+    if name in EXPRESSION_CONSTANTS:
+        return EXPRESSION_CONSTANTS[name]
+    raise InputError(f"{where}: expression '${{{expression}}}': unknown name '{name}' (pass -var {name} VALUE; "
+                     f"functions: {', '.join(EXPRESSION_FUNCTIONS)}; constant: pi)")
+
+
+def evaluate_expression(expression: str, variables: dict[str, str], where: str):
+    """The number of an arithmetic expression over the -var variables, e.g. ``0.5*D`` or ``D - 1.4*d``.
+
+    An int when the value is integral and every operand (literal or variable) is an int (``${N/2}`` with
+    N = 10 gives 5, ``${0.5*N}`` gives 5.0), else a float. Unknown names, syntax errors, division by zero,
+    non-numeric or non-finite results are InputError naming the command (where) and the expression.
+    """
+    def fail(reason: str) -> InputError:
+        return InputError(f"{where}: expression '${{{expression}}}' {reason}")
+
+    try:
+        tree = ast.parse(expression.strip(), mode="eval")
+    except SyntaxError as exc:
+        raise fail(f"is not valid arithmetic ({exc.msg})") from None
+    calls = {id(node.func) for node in ast.walk(tree) if isinstance(node, ast.Call)}
+    names, all_ints = {}, True
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name):
+            if id(node) in calls:
+                continue  # a function's name, checked with its call
+            names[node.id] = _operand_value(node.id, variables, expression, where)
+            all_ints = all_ints and isinstance(names[node.id], int)
+        elif isinstance(node, ast.Constant):
+            if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
+                raise fail(f"holds {node.value!r}: {_ALLOWED}")
+            all_ints = all_ints and isinstance(node.value, int)
+        elif isinstance(node, ast.Call):
+            if not isinstance(node.func, ast.Name) or node.keywords:
+                raise fail(f"calls something other than a function by name: {_ALLOWED}")
+            if node.func.id not in EXPRESSION_FUNCTIONS:
+                raise fail(f"calls unknown function '{node.func.id}' (functions: "
+                           f"{', '.join(EXPRESSION_FUNCTIONS)})")
+        elif isinstance(node, (ast.BinOp, ast.UnaryOp)):
+            if type(node.op) not in EXPRESSION_OPERATORS:
+                raise fail(f"uses an operator that is not arithmetic: {_ALLOWED}")
+        elif not isinstance(node, (ast.Expression, ast.Load, ast.operator, ast.unaryop)):
+            raise fail(f"uses Python syntax that is not arithmetic ({type(node).__name__}): {_ALLOWED}")
+    evaluator = simpleeval.SimpleEval(operators=EXPRESSION_OPERATORS, functions=EXPRESSION_FUNCTIONS, names=names)
+    try:
+        value = evaluator.eval(expression.strip())
+    except ZeroDivisionError:
+        raise fail("divides by zero") from None
+    except (simpleeval.InvalidExpression, ValueError, TypeError, OverflowError, ArithmeticError) as exc:
+        raise fail(f"cannot be evaluated ({type(exc).__name__}: {exc})") from None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise fail(f"gives {value!r}, not a number")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise fail(f"gives {value!r}, not a finite number")
+    if all_ints and isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
+
+
+def _fill(match, variables: dict[str, str], where: str) -> str:
+    """The text a ${...} inside a longer string becomes: a variable's text, or an expression's repr."""
+    content = match.group(1)
+    if _VARIABLE.fullmatch(match.group(0)):
+        return variables[content]
+    if not content.strip():
+        return match.group(0)  # "${}" was never a variable: left as text, as before expressions existed
+    return repr(evaluate_expression(content, variables, where))
+
+
 def substitute(value, variables: dict[str, str], where: str):
-    """value with every ``${NAME}`` filled in; where names the command for error messages."""
+    """value with every ``${NAME}`` filled in and every ``${expression}`` evaluated; where names the command
+    for error messages."""
     if isinstance(value, str):
         whole = _VARIABLE.fullmatch(value)
         for name in _VARIABLE.findall(value):
@@ -38,10 +136,16 @@ def substitute(value, variables: dict[str, str], where: str):
                 raise InputError(f"{where}: variable '${{{name}}}' has no value (pass -var {name} VALUE)")
         if whole:
             return _number_or_text(variables[whole.group(1)])
-        if not _VARIABLE.search(value):
+        expression = _BRACED.fullmatch(value)
+        if expression and expression.group(1).strip():
+            return evaluate_expression(expression.group(1), variables, where)
+        if not _BRACED.search(value):
             return value
-        # "-${W}" or "${A}e-3": a filled-in string that reads as a number is one
-        return _number_or_text(_VARIABLE.sub(lambda m: variables[m.group(1)], value))
+        # "-${W}", "${A}e-3" or "-${W/2}": a filled-in string that reads as a number is one
+        filled = _BRACED.sub(lambda m: _fill(m, variables, where), value)
+        if filled == value:
+            return value
+        return _number_or_text(filled)
     if isinstance(value, list):
         return [substitute(v, variables, where) for v in value]
     if isinstance(value, dict):
