@@ -328,6 +328,9 @@ def get(sim, fields: Fields):
         t_r, t_h = guards.critical_timestep(sim)
         sim.log.info(f"critical_timestep: rayleigh_time = {t_r!r} s, hertz_time = {t_h!r} s")
     elif quantities.known(prop):
+        problem = quantities.unknown_reference(sim, prop)
+        if problem:
+            raise fields.error("property", f"quantity '{prop}' {problem}")
         sim.log.info(f"{prop} = {quantities.evaluate(sim, prop)!r}")
     else:
         raise fields.error("property", f"names unknown property '{prop}'")

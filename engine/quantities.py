@@ -2,7 +2,10 @@
 
 A global quantity is a name and a function of the simulation; a per-particle quantity is ``NAME[ID]`` (e.g.
 ``vz[1]``), a per-wall one ``wall_fNAME[WALL]`` (e.g. ``wall_fz[floor]``). A new quantity is one entry of
-`GLOBAL`. Everything is vectorised numpy over the particles, evaluated only at output steps.
+`GLOBAL`. Sums over a selection of the particles are ``count|mass|ke|rke[type=T,region=NAME]`` (either or
+both selectors; `SELECTED`), and the insert and outlet modifiers' counters ``inserted_count[NAME]``,
+``inserted_mass``, ``removed_count``, ``removed_mass`` (`MODIFIER_COUNTERS`). Everything is vectorised numpy
+over the particles, evaluated only at output steps.
 """
 from __future__ import annotations
 
@@ -12,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import regions
 from .errors import InputError
 from .neighbor import overlap_statistics
 
@@ -39,14 +43,15 @@ def overlaps(sim):
                               sim.periodic, OVERLAP_WARN_RATIO)
 
 
-def _ke(sim):
+def _ke(sim, mask=slice(None)):
     s = sim.state
-    return float(0.5 * np.sum(s.mass * _speed_sq(s)))
+    return float(0.5 * np.sum(s.mass[mask] * _speed_sq(s)[mask]))
 
 
-def _rke(sim):
+def _rke(sim, mask=slice(None)):
     s = sim.state
-    return float(0.5 * np.sum(0.4 * s.mass * s.radius ** 2 * np.einsum("ij,ij->i", s.omega, s.omega)))
+    return float(0.5 * np.sum(0.4 * s.mass[mask] * s.radius[mask] ** 2
+                              * np.einsum("ij,ij->i", s.omega, s.omega)[mask]))
 
 
 def _pe(sim):
@@ -78,6 +83,8 @@ GLOBAL = {
                           lambda sim: float(np.sqrt(np.max(_speed_sq(sim.state)))) if sim.n else 0.0),
     "contacts": Quantity("-", "particle-particle contacts", lambda sim: overlaps(sim)[0]),
     "max_overlap": Quantity("-", "largest overlap / smaller radius", lambda sim: overlaps(sim)[2]),
+    "lost": Quantity("-", "particles that left the fixed domain so far (not those an outlet removed)",
+                     lambda sim: sim.lost_total),
 }
 GLOBAL_QUANTITIES = tuple(GLOBAL)
 
@@ -90,12 +97,88 @@ PARTICLE_QUANTITY = re.compile(r"^(%s)\[(\d+)\]$" % "|".join(PARTICLE))
 WALL_QUANTITY = re.compile(r"^wall_f([xyz])\[([^\]]+)\]$")
 
 
+#: sums over the particles a selection picks: NAME[type=T], NAME[region=R] or NAME[type=T,region=R]
+SELECTED = {
+    "count": Quantity("-", "number of particles", lambda sim, mask: int(np.count_nonzero(mask))),
+    "mass": Quantity("kg", "total mass", lambda sim, mask: float(np.sum(sim.state.mass[mask]))),
+    "ke": Quantity("J", "translational kinetic energy", _ke),
+    "rke": Quantity("J", "rotational kinetic energy", _rke),
+}
+SELECTED_QUANTITY = re.compile(r"^(%s)\[([^\]]+)\]$" % "|".join(SELECTED))
+_SELECTOR = re.compile(r"^(type)=([1-9][0-9]*)$|^(region)=(.+)$")
+#: counters of the insert and outlet modifiers: NAME[MODIFIER] -> (modifier kind, attribute)
+MODIFIER_COUNTERS = {"inserted_count": ("insert", "inserted_count"), "inserted_mass": ("insert", "inserted_mass"),
+                     "removed_count": ("outlet", "removed_count"), "removed_mass": ("outlet", "removed_mass")}
+MODIFIER_QUANTITY = re.compile(r"^(%s)\[([^\]]+)\]$" % "|".join(MODIFIER_COUNTERS))
+
+
+def selection(name: str):
+    """(quantity, type or None, region name or None) of NAME[type=T,region=R], or None when name is not one
+    (unknown selector, a selector twice, or neither)."""
+    m = SELECTED_QUANTITY.match(name)
+    if not m:
+        return None
+    chosen = {}
+    for part in m.group(2).split(","):
+        sel = _SELECTOR.match(part.strip())
+        if not sel:
+            return None
+        key, value = (sel.group(1), int(sel.group(2))) if sel.group(1) else (sel.group(3), sel.group(4).strip())
+        if key in chosen:
+            return None
+        chosen[key] = value
+    return m.group(1), chosen.get("type"), chosen.get("region")
+
+
 def known(name: str) -> bool:
-    return name in GLOBAL or PARTICLE_QUANTITY.match(name) is not None or WALL_QUANTITY.match(name) is not None
+    return (name in GLOBAL or PARTICLE_QUANTITY.match(name) is not None or WALL_QUANTITY.match(name) is not None
+            or selection(name) is not None or MODIFIER_QUANTITY.match(name) is not None)
+
+
+def unknown_reference(sim, name: str) -> str | None:
+    """Why quantity name cannot be evaluated in this scene (a region or modifier it names does not exist or
+    is of another kind), or None. Per-wall quantities are checked by the run (`wall_names`)."""
+    chosen = selection(name)
+    if chosen is not None:
+        region = chosen[2]
+        if region is not None and region not in sim.regions:
+            return (f"names no region '{region}' (regions: {', '.join(sorted(sim.regions)) or 'none'}; "
+                    "create region first)")
+        return None
+    m = MODIFIER_QUANTITY.match(name)
+    if m:
+        kind = MODIFIER_COUNTERS[m.group(1)][0]
+        mod = sim.modifiers.get(m.group(2))
+        if mod is None or mod.kind != kind:
+            names = sorted(n for n, mod in sim.modifiers.items() if mod.kind == kind)
+            return (f"names no {kind} modifier '{m.group(2)}' ({kind} modifiers: {', '.join(names) or 'none'})")
+    return None
+
+
+def _selected(sim, name: str, chosen):
+    quantity, ptype, region = chosen
+    problem = unknown_reference(sim, name)
+    if problem:
+        raise InputError(f"quantity '{name}' {problem}")
+    mask = np.ones(sim.n, dtype=bool)
+    if ptype is not None:
+        mask &= sim.state.ptype == ptype - 1
+    if region is not None:
+        mask &= regions.contains(sim.regions[region], sim.state.x)
+    return SELECTED[quantity].value(sim, mask)
 
 
 def evaluate(sim, name: str):
     """The value of a quantity now (NaN for a particle id that is not present)."""
+    chosen = selection(name)
+    if chosen is not None:
+        return _selected(sim, name, chosen)
+    m = MODIFIER_QUANTITY.match(name)
+    if m:
+        problem = unknown_reference(sim, name)
+        if problem:
+            raise InputError(f"quantity '{name}' {problem}")
+        return getattr(sim.modifiers[m.group(2)], MODIFIER_COUNTERS[m.group(1)][1])
     m = WALL_QUANTITY.match(name)
     if m:
         names = [w["name"] for w in sim.walls]

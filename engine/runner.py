@@ -54,6 +54,10 @@ def check_ready(sim, fields: Fields):
         if wall not in names:
             raise fields.error("steps", f"cannot run: quantity '{q}' names no wall '{wall}' "
                                f"(walls: {', '.join(sorted(names)) or 'none'})")
+    for q in requested:
+        problem = quantities.unknown_reference(sim, q)
+        if problem:
+            raise fields.error("steps", f"cannot run: quantity '{q}' {problem}")
     if sim.n:
         cutoff = 2 * float(sim.state.radius.max()) + sim.skin
         for a in range(3):

@@ -31,7 +31,7 @@ class CsvSeries:
             self.handle = open(self.path, "w", buffering=1, encoding="utf-8")
         except OSError as exc:
             raise output_failure(what, path, exc) from None
-        self._put(",".join(columns) + "\n")
+        self._put(",".join(_header(c) for c in columns) + "\n")
 
     def _put(self, text: str):
         try:
@@ -55,6 +55,14 @@ class CsvSeries:
                 handle.close()
             except OSError:
                 pass
+
+
+def _header(column: str) -> str:
+    """A column name as a CSV field: quoted (RFC 4180) when it holds a comma or a quote, as a selection
+    quantity such as ke[type=1,region=bin] does; every other name is written as it is."""
+    if "," in column or '"' in column:
+        return '"' + column.replace('"', '""') + '"'
+    return column
 
 
 def _format(value) -> str:
