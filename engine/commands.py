@@ -246,7 +246,10 @@ def create_random_packing(sim, fields: Fields):
 
 
 def create_modifier(sim, fields: Fields):
-    mod = modifiers.create(fields)
+    mod = modifiers.create(fields, sim)
+    restored = sim.modifier_state.get(mod.name)
+    if restored is not None and restored.get("kind") == mod.kind:
+        mod.restore(restored)  # counters of a restart file (insert, outlet): the continuation goes on counting
     sim.modifiers[mod.name] = mod
 
 

@@ -2,13 +2,14 @@
 
 Each kind is a class in `MODIFIERS`; a new kind is a new class. A modifier either adds to the forces inside
 the compiled step loop (gravity: its acceleration enters the kernel's force clearing) or acts at output steps,
-every `every` steps (print, vtk, restart), outside compiled code.
+every `every` steps (print, vtk, restart), outside compiled code. Insert and outlet modifiers change the
+particle set at their steps (`change_particles`, before the output of that step; engine/insertion.py).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from . import quantities
+from . import insertion, quantities
 from .output import write_vtk
 from .script import Fields
 from .writers import CsvSeries
@@ -36,6 +37,25 @@ class Modifier:
 
     def close(self):
         """Release open files."""
+
+    def particle_types(self) -> list:
+        """Material types of the particles this modifier brings in (checked for interactions before a run)."""
+        return []
+
+    def problem(self, sim) -> str | None:
+        """Why a run cannot start with this modifier fixed, or None."""
+        return None
+
+    def act(self, sim) -> int:
+        """Change the particle set at the current step if it is one of this modifier's (insert, outlet)."""
+        return 0
+
+    def state(self) -> dict:
+        """Counters a restart file carries (JSON values); empty for modifiers without state."""
+        return {}
+
+    def restore(self, values: dict):
+        """Counters from a restart file (`state`)."""
 
 
 class Gravity(Modifier):
@@ -116,13 +136,74 @@ class RestartWriter(_Periodic):
             write_restart(sim, self.file.replace("{step}", str(sim.step)))
 
 
-MODIFIERS = {cls.kind: cls for cls in (Gravity, Print, VtkDump, RestartWriter)}
+class _ParticleSetChange(Modifier):
+    """A modifier that inserts or removes particles at its steps: a wrapper of engine/insertion.py."""
+
+    engine_class = None
+
+    def __init__(self, name: str, fields: Fields, sim):
+        super().__init__(name, fields)
+        self.engine = self.engine_class(name, fields, sim)
+        self.every = self.engine.every
+
+    def problem(self, sim):
+        return self.engine.problem(sim)
+
+    def act(self, sim) -> int:
+        return self.engine.act(sim)
+
+    def state(self) -> dict:
+        return {key: getattr(self.engine, key) for key in self.engine.STATE}
+
+    def restore(self, values: dict):
+        for key in self.engine.STATE:
+            if key in values:
+                setattr(self.engine, key, type(getattr(self.engine, key))(values[key]))
+
+    def __getattr__(self, name):
+        # the counters quantities read (inserted_count, removed_mass, ...) live in the engine object
+        if name.startswith(("inserted_", "removed_")):
+            return getattr(self.__dict__["engine"], name)
+        raise AttributeError(name)
 
 
-def create(fields: Fields) -> Modifier:
+class Insert(_ParticleSetChange):
+    """Particles inserted into a region at a rate, without overlaps (engine/insertion.py `Inserter`)."""
+
+    kind = "insert"
+    engine_class = insertion.Inserter
+
+    def particle_types(self) -> list:
+        return [self.engine.type]
+
+
+class Outlet(_ParticleSetChange):
+    """Particles whose centre is in a region removed at every `every` steps (engine/insertion.py `Outlet`)."""
+
+    kind = "outlet"
+    engine_class = insertion.Outlet
+
+
+MODIFIERS = {cls.kind: cls for cls in (Gravity, Print, VtkDump, RestartWriter, Insert, Outlet)}
+
+
+def create(fields: Fields, sim=None) -> Modifier:
+    """A modifier of a create command; sim is the scene (the kinds that insert or remove particles read its
+    materials and regions)."""
     name = fields.string("name", required=True)
     kind = fields.string("kind", required=True, choices=tuple(MODIFIERS))
+    if issubclass(MODIFIERS[kind], _ParticleSetChange):
+        return MODIFIERS[kind](name, fields, sim)
     return MODIFIERS[kind](name, fields)
+
+
+def change_particles(sim) -> int:
+    """Let the active insert and outlet modifiers act at the current step, in the order they were fixed;
+    returns the change of the particle count."""
+    before = sim.n
+    for mod in sim.active_modifiers():
+        mod.act(sim)
+    return sim.n - before
 
 
 def gravity_vector(active) -> np.ndarray:

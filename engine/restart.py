@@ -33,11 +33,19 @@ def write_restart(sim, path: str):
                      dt=np.nan if sim.dt is None else sim.dt, skin=sim.skin, lo=sim.lo, hi=sim.hi,
                      periodic=sim.periodic, next_id=sim.next_id, dirty=sim.dirty,
                      walls=json.dumps(sim.walls), plane_pos=sim.plane_pos, wall_force=sim.wall_force,
+                     modifier_state=json.dumps(modifier_state(sim)),
                      **particle_state.as_arrays(sim.state),
                      **{key: getattr(sim.nbr, name) for key, name in NEIGHBOR_ARRAYS.items()})
     except OSError as exc:
         raise output_failure("restart file", path, exc) from None
     sim.log.info(f"wrote restart file {path} at step {sim.step}")
+
+
+def modifier_state(sim) -> dict:
+    """Counters of the modifiers that keep some (insert, outlet), by name: a continuation goes on counting
+    and inserts with the next insertion's seeds, as the long run does."""
+    return {name: {"kind": mod.kind, **mod.state()} for name, mod in sim.modifiers.items() if mod.state()}
+
 
 def read_restart(sim, path: str, fields: Fields):
     """Restore a restart file, after checking that it is one: a truncated, foreign or inconsistent file
@@ -56,6 +64,10 @@ def read_restart(sim, path: str, fields: Fields):
         raise fields.error("file", f"{path} has restart format {int(data['format'])}, expected {RESTART_FORMAT}")
     try:
         walls = _check_restart(data)
+    except ValueError as exc:
+        raise fields.error("file", f"{path} is not a consistent restart file: {exc}") from None
+    try:
+        states = _modifier_states(data)
     except ValueError as exc:
         raise fields.error("file", f"{path} is not a consistent restart file: {exc}") from None
     for w in walls:
@@ -81,6 +93,10 @@ def read_restart(sim, path: str, fields: Fields):
     start, j, hist = (np.ascontiguousarray(data[key]) for key in NEIGHBOR_ARRAYS)
     sim.nbr = from_half_list(start, j.astype(np.int32), hist, sim.n, 3)
     sim.dirty = bool(data["dirty"])
+    sim.modifier_state = states
+    for name, mod in sim.modifiers.items():  # modifiers created before the restart was read
+        if states.get(name, {}).get("kind") == mod.kind:
+            mod.restore(states[name])
     sim.log.info(f"read restart file {path}: step {sim.step}, {sim.n} particles")
 
 
@@ -147,6 +163,28 @@ def _check_restart(data: dict) -> list[dict]:
     if data["plane_pos"].shape[0] != planes:
         raise ValueError(f"{data['plane_pos'].shape[0]} plane positions for {planes} planes")
     return walls
+
+
+def _modifier_states(data: dict) -> dict:
+    """The modifier counters of a restart file (absent in files written before insert and outlet existed)."""
+    if "modifier_state" not in data:
+        return {}
+    array = data["modifier_state"]
+    if array.dtype.kind != "U" or array.shape != ():
+        raise ValueError("array 'modifier_state' is not a text")
+    try:
+        states = json.loads(str(array))
+    except ValueError as exc:
+        raise ValueError(f"the modifier counters are not JSON ({exc})") from None
+    if not (isinstance(states, dict) and all(isinstance(v, dict) and isinstance(v.get("kind"), str)
+                                             for v in states.values())):
+        raise ValueError("the modifier counters are not a map of modifier names to counters")
+    for name, values in states.items():
+        for key, value in values.items():
+            if key != "kind" and (not isinstance(value, (int, float)) or (isinstance(value, float)
+                                                                          and not math.isfinite(value))):
+                raise ValueError(f"counter '{key}' of modifier '{name}' is not a finite number")
+    return states
 
 
 def _wall_ok(w) -> bool:

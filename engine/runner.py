@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 import numpy as np
 
-from . import guards, quantities
+from . import guards, modifiers, quantities
 from . import threads as thread_pool
 from . import state as particle_state
 from .errors import RunFailure
@@ -42,7 +42,8 @@ def check_ready(sim, fields: Fields):
         raise fields.error("steps", "cannot run: no time step (set property timestep first)")
     if sim.model is None:
         raise fields.error("steps", "cannot run: no contact model (create a contact_model first)")
-    used = sorted(set((sim.state.ptype + 1).tolist()) | {w["type"] for w in sim.walls})
+    used = sorted(set((sim.state.ptype + 1).tolist()) | {w["type"] for w in sim.walls}
+                  | {t for mod in sim.active_modifiers() for t in mod.particle_types()})
     for a in used:
         for b in used:
             if a <= b and (a, b) not in sim.interactions:
@@ -58,6 +59,10 @@ def check_ready(sim, fields: Fields):
         problem = quantities.unknown_reference(sim, q)
         if problem:
             raise fields.error("steps", f"cannot run: quantity '{q}' {problem}")
+    for mod in sim.active_modifiers():
+        problem = mod.problem(sim)
+        if problem:
+            raise fields.error("steps", f"cannot run: modifier '{mod.name}' {problem}")
     if sim.n:
         cutoff = 2 * float(sim.state.radius.max()) + sim.skin
         for a in range(3):
@@ -141,6 +146,8 @@ def run(sim, fields: Fields):
     particle_steps = 0
     rebuilds = 0
     sim.output.where = fields.where
+    # insert and outlet modifiers act before the output of their step (the thermo row counts what they did)
+    modifiers.change_particles(sim)
     sim.output.write(sim, start=True)
     timestep_warned: set = set()
     end = start_step + steps
@@ -170,6 +177,7 @@ def run(sim, fields: Fields):
                             f"{OVERLAP_WARN_RATIO:.0%} of the smaller radius (max {worst:.1%})")
         if sim.timestep_every and sim.step % sim.timestep_every == 0:
             guards.recheck_timestep(sim, fields.where, timestep_warned)
+        modifiers.change_particles(sim)
         sim.output.write(sim, start=False)
     total = time.perf_counter() - start_wall
     cpu = time.process_time() - start_cpu

@@ -46,6 +46,7 @@ class Simulation:
         self.next_id = 1
         self.modifiers: dict[str, modifiers.Modifier] = {}
         self.active: list[str] = []  # fixed modifiers, in the order they were fixed
+        self.modifier_state: dict[str, dict] = {}  # modifier name -> counters read from a restart file
         self.output = Output()
         self.timestep_fraction = 0.2
         self.timestep_strict = False
