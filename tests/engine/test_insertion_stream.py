@@ -206,7 +206,10 @@ def test_an_insertion_leaves_existing_contacts_and_their_history_alone(engine_ru
     far = [region("far", (0.15, 0.15, 0.15), (0.25, 0.25, 0.25))] + \
         feed(every=400, start=400, rate=1000, total=1, region_name="far", radius=0.01)
     for sub, extra in (("with", far), ("without", [])):
-        code, _ = engine_run(COLLISION + extra + printer(1, TRACK + ["contacts", "atoms"]) + [run(1000)], sub=sub)
+        # two runs, the insertion at the end of the first: the second run must not evaluate the forces (and
+        # advance the shear history) again before its first step
+        code, _ = engine_run(COLLISION + extra + printer(1, TRACK + ["contacts", "atoms"]) + [run(400), run(600)],
+                             sub=sub)
         assert code == 0
     with_far = read_csv(engine_run.folder / "with" / "series.csv")
     without = read_csv(engine_run.folder / "without" / "series.csv")
