@@ -13,7 +13,7 @@ import numpy as np
 from .contact_laws import effective_youngs_modulus
 from .errors import RunFailure
 from .quantities import OVERLAP_WARN_RATIO
-from .walls import overlap_ratios
+from .walls import overlap_ratios, surface_speeds
 
 
 def critical_timestep(sim):
@@ -22,7 +22,7 @@ def critical_timestep(sim):
     t_R = min_i pi r sqrt(rho/G) / (0.1631 nu + 0.8766), G = Y / (2 (1+nu));
     t_H = min_i 2.87 (m^2 / (R Y*^2 v))^(1/5) with m the particle mass, R = r/2, Y* the largest over the
     types it can touch (particle types present and wall types), v = max(2 v_max, v_max + v_wall_max) with
-    the plane walls' whole speed; infinite when v = 0. LIGGGHTS 3.8 takes Y* of the particle's own type
+    the fastest wall surface (engine.walls.surface_speeds); infinite when v = 0. LIGGGHTS 3.8 takes Y* of the particle's own type
     pair only and no primitive wall's speed: README.md says why we keep the smaller, safer bound.
     Vectorised over particles (per-type lookup tables): cheap enough to re-check during a run.
     """
@@ -38,8 +38,7 @@ def critical_timestep(sim):
     shear = y / (2.0 * (1.0 + nu))
     t_r = float(np.min(math.pi * s.radius * np.sqrt(rho / shear) / (0.1631 * nu + 0.8766)))
     v_max = float(np.sqrt(np.max(np.einsum("ij,ij->i", s.v, s.v))))
-    v_wall = max([float(np.linalg.norm(w["velocity"])) for w in sim.walls if w["shape"] == "plane"],
-                 default=0.0)
+    v_wall = max(surface_speeds(sim), default=0.0)
     v = max(2.0 * v_max, v_max + v_wall)
     if v == 0.0:
         return t_r, math.inf
@@ -91,12 +90,11 @@ def _timestep_verdicts(sim, where: str, prefix: str, t_r: float, t_h: float, war
 def wall_overlaps(sim):
     """(particle-wall contacts above 10 % of the radius, largest overlap / radius) over all walls, vectorised.
 
-    Plane along axis a at p: overlap r - |x_a - p| (two-sided); z-cylinder: r - (R - rho) inside,
-    r - (rho - R) outside, rho the distance from its axis (physics.md, walls).
+    The overlaps of engine.walls.overlap_ratios (planes, cylinders, meshes).
     """
     if not sim.walls or sim.n == 0:
         return 0, 0.0
-    ratio = overlap_ratios(sim.walls, sim.plane_pos, sim.state.x, sim.state.radius)
+    ratio = overlap_ratios(sim)
     return int(np.count_nonzero(ratio > OVERLAP_WARN_RATIO)), max(0.0, float(ratio.max()))
 
 

@@ -51,7 +51,13 @@ class Combination:
     limit_force: bool = False
     tangential_damping: bool = True
     planes: bool = False
+    bounded_planes: bool = False
     cylinders: bool = False
+    cylinder_spin: bool = False
+    cylinder_extent: bool = False
+    meshes: bool = False
+    mesh_motion: bool = False
+    mesh_rotation: bool = False
     gravity: bool = False
     periodic: tuple = (False, False, False)
     parallel: bool = False
@@ -184,7 +190,20 @@ ROLLING_PARTNER = {True: "reaction[q, ${o}] = rtx\nreaction[q, ${o1}] = rty\nrea
 #: print), collected at the last step of a chunk.
 PAIR_REACTION = {True: "reaction[q, 0] = fx\nreaction[q, 1] = fy\nreaction[q, 2] = fz\n",
                  False: "f[j, 0] -= fx\nf[j, 1] -= fy\nf[j, 2] -= fz\n"}
-WALL_REACTION = "if record:\n    wall_part[i, w, 0] = fx\n    wall_part[i, w, 1] = fy\n    wall_part[i, w, 2] = fz\n"
+#: and the torque about the origin of the force on the particle at the contact point c (the wall takes the
+#: opposite). A plane or cylinder has one contact per particle; a mesh adds up its triangles' contacts.
+WALL_REACTION = """\
+if record:
+    ${point}
+    wall_part[i, w, 0] ${op} fx
+    wall_part[i, w, 1] ${op} fy
+    wall_part[i, w, 2] ${op} fz
+    wall_tpart[i, w, 0] ${op} cy * fz - cz * fy
+    wall_tpart[i, w, 1] ${op} cz * fx - cx * fz
+    wall_tpart[i, w, 2] ${op} cx * fy - cy * fx
+"""
+#: the contact point of a plane or cylinder: the foot of the particle's centre on the surface
+WALL_POINT = "cx = xi0 - enx * dist\ncy = xi1 - eny * dist\ncz = xi2 - enz * dist\n"
 
 PARTICLE_HEAD = """\
 xi0 = x[i, 0]
@@ -260,19 +279,23 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box):
 '''
 
 #: a wall has infinite radius and mass (R* = r_i, m* = m_i), its type's material; en points from the wall to
-#: the particle
+#: the particle. A plane along an axis gives bitwise the values of a plane that knows its axis: (x - p).n adds
+#: exact zeros, and + 0.0 turns the -0.0 of sign * 0.0 into +0.0.
 PLANE_CONTACTS = """\
 for w in range(nplanes):
-    axis = plane_axis[w]
-    sep = x[i, axis] - plane_pos[w]
+    nx = plane_normal[w, 0]
+    ny = plane_normal[w, 1]
+    nz = plane_normal[w, 2]
+    sep = (xi0 - plane_point[w, 0]) * nx + (xi1 - plane_point[w, 1]) * ny + (xi2 - plane_point[w, 2]) * nz
     dist = abs(sep)
     if dist >= ri:
         ${reset_history}
         continue
+    ${bounds}
     sign = 1.0 if sep >= 0.0 else -1.0
-    enx = sign if axis == 0 else 0.0
-    eny = sign if axis == 1 else 0.0
-    enz = sign if axis == 2 else 0.0
+    enx = sign * nx + 0.0
+    eny = sign * ny + 0.0
+    enz = sign * nz + 0.0
     d = ri - dist
     tj = plane_type[w]
     vrx = vix - plane_vel[w, 0]
@@ -281,13 +304,33 @@ for w in range(nplanes):
     vn = vrx * enx + vry * eny + vrz * enz
     ${contact}
 """
-#: en points inward for an inside wall, outward outside
+#: a bounded plane: contact only where the foot of the centre lies in the box lo..hi
+PLANE_BOUNDS = """\
+fx0 = xi0 - sep * nx
+fx1 = xi1 - sep * ny
+fx2 = xi2 - sep * nz
+if (fx0 < plane_lo[w, 0] or fx0 > plane_hi[w, 0] or fx1 < plane_lo[w, 1] or fx1 > plane_hi[w, 1]
+        or fx2 < plane_lo[w, 2] or fx2 > plane_hi[w, 2]):
+    ${reset_history}
+    continue
+"""
+#: en points inward for an inside wall, outward outside; rho the distance from the axis (for the z axis through
+#: (cx, cy, 0) bitwise sqrt((x - cx)^2 + (y - cy)^2))
 CYLINDER_CONTACTS = """\
 for q in range(cyl_radius.shape[0]):
     w = nplanes + q
-    px = xi0 - cyl_center[q, 0]
-    py = xi1 - cyl_center[q, 1]
-    rho = sqrt(px * px + py * py)
+    px = xi0 - cyl_point[q, 0]
+    py = xi1 - cyl_point[q, 1]
+    pz = xi2 - cyl_point[q, 2]
+    ax = cyl_axis[q, 0]
+    ay = cyl_axis[q, 1]
+    az = cyl_axis[q, 2]
+    along = px * ax + py * ay + pz * az
+    ${extent}
+    rx = px - along * ax
+    ry = py - along * ay
+    rz = pz - along * az
+    rho = sqrt(rx * rx + ry * ry + rz * rz)
     if cyl_side[q] > 0:
         dist = cyl_radius[q] - rho
     else:
@@ -295,16 +338,106 @@ for q in range(cyl_radius.shape[0]):
     if dist >= ri or rho == 0.0:
         ${reset_history}
         continue
-    enx = -cyl_side[q] * px / rho
-    eny = -cyl_side[q] * py / rho
-    enz = 0.0
+    enx = -cyl_side[q] * rx / rho + 0.0
+    eny = -cyl_side[q] * ry / rho + 0.0
+    enz = -cyl_side[q] * rz / rho + 0.0
     d = ri - dist
     tj = cyl_type[q]
-    vrx = vix
-    vry = viy
-    vrz = viz
+    ${surface_velocity}
     vn = vrx * enx + vry * eny + vrz * enz
     ${contact}
+"""
+CYLINDER_EXTENT = """\
+if along < cyl_lo[q] or along > cyl_hi[q]:
+    ${reset_history}
+    continue
+"""
+#: a turning cylinder's surface moves at omega R (axis x radial unit vector) at the contact point
+CYLINDER_SPIN = """\
+spin = cyl_omega[q] * cyl_radius[q] / rho
+vrx = vix - spin * (ay * rz - az * ry)
+vry = viy - spin * (az * rx - ax * rz)
+vrz = viz - spin * (ax * ry - ay * rx)
+"""
+CYLINDER_STILL = "vrx = vix\nvry = viy\nvrz = viz\n"
+
+#: the triangles in particle i's rows of the mesh list (engine/mesh.py): closest point, region, and whether an
+#: edge or corner contact counts; a face contact has the face normal (as a plane), an edge or corner contact
+#: the direction from the closest point c to the centre
+MESH_CONTACTS = """\
+for k in range(mesh_start[i], mesh_start[i + 1]):
+    t = mesh_tri[k]
+    cx, cy, cz, region = closest_point(xi0, xi1, xi2, tri_v, t)
+    if region == 0:
+        nx = tri_n[t, 0]
+        ny = tri_n[t, 1]
+        nz = tri_n[t, 2]
+        sep = (xi0 - tri_v[t, 0, 0]) * nx + (xi1 - tri_v[t, 0, 1]) * ny + (xi2 - tri_v[t, 0, 2]) * nz
+        dist = abs(sep)
+    else:
+        gx = xi0 - cx
+        gy = xi1 - cy
+        gz = xi2 - cz
+        dist = sqrt(gx * gx + gy * gy + gz * gz)
+    if dist >= ri or dist == 0.0:
+        mesh_touch[k] = 0
+        continue
+    if region == 0:
+        sign = 1.0 if sep >= 0.0 else -1.0
+        enx = sign * nx + 0.0
+        eny = sign * ny + 0.0
+        enz = sign * nz + 0.0
+    else:
+        if not edge_or_corner_counts(xi0, xi1, xi2, cx, cy, cz, region, t, tri_v, tri_vid, fan_start, fan_tri,
+                                     1e-20 * ri * ri):
+            mesh_touch[k] = 0
+            continue
+        enx = gx / dist
+        eny = gy / dist
+        enz = gz / dist
+    mesh_touch[k] = 1
+    ${take_history}
+    d = ri - dist
+    mk = tri_mesh[t]
+    w = mesh_wall0[0] + mk
+    tj = mesh_type[mk]
+    ${surface_velocity}
+    vn = vrx * enx + vry * eny + vrz * enz
+    ${contact}
+${reset_history}
+"""
+#: a new contact with no history looks for the history of a triangle of the same plane the particle leaves
+#: (engine/mesh.py take_coplanar_history); entries that are no contact lose their history after the loop, so
+#: that the order of the entries does not matter
+MESH_TAKE_HISTORY = """\
+fresh = True
+for h in range(${width}):
+    if mesh_hist[k, h] != 0.0:
+        fresh = False
+if fresh:
+    take_coplanar_history(mesh_hist, mesh_tri, mesh_touch, mesh_start[i], mesh_start[i + 1], k, tri_v, tri_n,
+                          1e-9 * ri)
+"""
+MESH_RESET = """\
+for k in range(mesh_start[i], mesh_start[i + 1]):
+    if mesh_touch[k] == 0:
+        for h in range(${width}):
+            mesh_hist[k, h] = 0.0
+"""
+#: a mesh's surface velocity at the contact point: its translation, plus omega a x (c - p) when it rotates
+MESH_VELOCITY = """\
+vrx = vix - mesh_vel[mk, 0]
+vry = viy - mesh_vel[mk, 1]
+vrz = viz - mesh_vel[mk, 2]
+"""
+MESH_SPIN = """\
+qx = cx - (mesh_point0[mk, 0] + mesh_shift[mk, 0])
+qy = cy - (mesh_point0[mk, 1] + mesh_shift[mk, 1])
+qz = cz - (mesh_point0[mk, 2] + mesh_shift[mk, 2])
+om = mesh_omega[mk]
+vrx -= om * (mesh_axis[mk, 1] * qz - mesh_axis[mk, 2] * qy)
+vry -= om * (mesh_axis[mk, 2] * qx - mesh_axis[mk, 0] * qz)
+vrz -= om * (mesh_axis[mk, 0] * qy - mesh_axis[mk, 1] * qx)
 """
 WALLS = """\
 ${particle_head}
@@ -312,6 +445,7 @@ reff = ri
 meff = mi
 ${planes}
 ${cylinders}
+${meshes}
 f[i, 0] += fix
 f[i, 1] += fiy
 f[i, 2] += fiz
@@ -343,10 +477,15 @@ elif not d2 <= half_skin_sq:
 #: step's first half kick and drift. Returns (particles beyond skin/2, first non-finite position or n).
 PARTICLE_PASS = '''\
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def particle_pass(s, n, nbr, walls, pp, dt, char_vel, gravity, kick, drift, record, wall_part, half_skin_sq):
+def particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, kick, drift, record, wall_part, wall_tpart,
+                  half_skin_sq):
     """Forces from the pair rows, walls, integration; see the template in engine.kernels."""
     ${unpack}
     ${unpack_walls}
+    mesh_start = mnbr.start
+    mesh_tri = mnbr.tri
+    mesh_hist = mnbr.hist
+    mesh_touch = mnbr.touch
     rstart = nbr.rstart
     reaction = nbr.reaction
     half_dt = 0.5 * dt
@@ -419,35 +558,41 @@ def clear_forces(s, n, gravity):
 WALL_FORCE_SUM = """\
 if record:
     wall_force = walls.force
+    wall_torque = walls.torque
     wall_force[:, :] = 0.0
+    wall_torque[:, :] = 0.0
     for i in range(n):
         for w in range(wall_part.shape[1]):
             for a in range(3):
                 wall_force[w, a] -= wall_part[i, w, a]
+                wall_torque[w, a] -= wall_tpart[i, w, a]
 """
 
 STEP_LOOP = '''\
 @njit(cache=True, error_model="numpy")
-def setup(s, n, nbr, walls, pp, c, step, lost):
-    """Fresh neighbor list and forces for the current state (start of a run after the scene changed).
-    Returns (particles kept, neighbor list)."""
+def setup(s, n, nbr, mnbr, walls, pp, c, step, lost):
+    """Fresh neighbor lists and forces for the current state (start of a run after the scene changed).
+    Returns (particles kept, neighbor list, mesh contact list)."""
     ${constants}
     box = hi - lo
     n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)
+    ${mesh_rebuild}
     ${clear_forces}
     pair_forces(s, n, nbr, pp, dt, char_vel, box)
     record = True
     wall_part = np.zeros((n, ${nwalls}, 3))
-    particle_pass(s, n, nbr, walls, pp, dt, char_vel, gravity, False, False, record, wall_part, 0.0)
+    wall_tpart = np.zeros((n, ${nwalls}, 3))
+    particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, False, False, record, wall_part, wall_tpart,
+                  0.0)
     ${wall_force_sum}
-    return n, nbr
+    return n, nbr, mnbr
 
 
 @njit(cache=True, error_model="numpy")
-def run_steps(s, n, nbr, walls, pp, c, step0, nsteps, timers, lost):
+def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost):
     """nsteps Velocity-Verlet steps (fix nve/sphere order) of the first n particles of state s. Returns
-    (status, bad particle, steps done, rebuilds, particles kept, neighbor list); status 1 = non-finite
-    position. timers += [neigh, pair, modify] in s."""
+    (status, bad particle, steps done, rebuilds, particles kept, neighbor list, mesh contact list); status 1 =
+    non-finite position. timers += [neigh, pair, modify] in s."""
     ${constants}
     box = hi - lo
     half_skin_sq = 0.25 * skin * skin
@@ -456,7 +601,7 @@ def run_steps(s, n, nbr, walls, pp, c, step0, nsteps, timers, lost):
     done = 0
     rebuilds = 0
     if nsteps == 0:
-        return status, bad, done, rebuilds, n, nbr
+        return status, bad, done, rebuilds, n, nbr, mnbr
     t0 = now()
     need, first_bad = drift_pass(s, n, dt, half_skin_sq)
     neigh = 0.0
@@ -465,14 +610,16 @@ def run_steps(s, n, nbr, walls, pp, c, step0, nsteps, timers, lost):
     for k_step in range(nsteps):
         step = step0 + k_step + 1
         t0 = now()
-        ${move_planes}
+        ${move_walls}
         if first_bad < n:
             status = 1
             bad = first_bad
             break
         t1 = now()
+        ${mesh_travel}
         if need > 0:
             n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)
+            ${mesh_rebuild}
             rebuilds += 1
         t2 = now()
         ${clear_forces}
@@ -480,8 +627,9 @@ def run_steps(s, n, nbr, walls, pp, c, step0, nsteps, timers, lost):
         t3 = now()
         record = k_step == nsteps - 1
         wall_part = np.zeros((n if record else 0, ${nwalls}, 3))
-        need, first_bad = particle_pass(s, n, nbr, walls, pp, dt, char_vel, gravity, True, not record, record,
-                                        wall_part, half_skin_sq)
+        wall_tpart = np.zeros((n if record else 0, ${nwalls}, 3))
+        need, first_bad = particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, True, not record, record,
+                                        wall_part, wall_tpart, half_skin_sq)
         ${wall_force_sum}
         t4 = now()
         neigh += t2 - t1
@@ -491,7 +639,7 @@ def run_steps(s, n, nbr, walls, pp, c, step0, nsteps, timers, lost):
     timers[0] += neigh
     timers[1] += pair
     timers[2] += modify
-    return status, bad, done, rebuilds, n, nbr
+    return status, bad, done, rebuilds, n, nbr, mnbr
 '''
 
 CONSTANTS = """\
@@ -504,10 +652,32 @@ periodic = c.periodic
 skin = c.skin
 """
 
+#: the planes' points move with their velocity (each step, as LIGGGHTS' fix wall/gran moves its walls)
 MOVE_PLANES = """\
-for w in range(walls.plane_axis.shape[0]):
-    walls.plane_pos[w] += walls.plane_vel[w, walls.plane_axis[w]] * dt
+for w in range(walls.plane_point.shape[0]):
+    for a in range(3):
+        walls.plane_point[w, a] += walls.plane_vel[w, a] * dt
 """
+#: meshes: angle and shift advance, the corners are placed anew (engine/mesh.py); how far a corner may have
+#: moved since the last rebuild grows by the fastest mesh's corner speed
+MOVE_MESHES = """\
+fastest = 0.0
+for m in range(walls.mesh_angle.shape[0]):
+    ${turn}
+    for a in range(3):
+        walls.mesh_shift[m, a] += walls.mesh_vel[m, a] * dt
+    fastest = max(fastest, walls.mesh_speed[m])
+walls.travel[0] += fastest * dt
+${place}
+"""
+PLACE_TURNING = """\
+place_vertices(walls.tri_v0, walls.tri_mesh, walls.mesh_point0, walls.mesh_axis, walls.mesh_angle, walls.mesh_shift,
+               walls.tri_v, walls.tri_n, True)
+"""
+PLACE_SHIFTED = "shift_vertices(walls.tri_v0, walls.tri_mesh, walls.mesh_shift, walls.tri_v)\n"
+#: a mesh that may have moved by more than skin/2 since the last rebuild: rebuild (the particles' own criterion)
+MESH_TRAVEL = "if walls.travel[0] > 0.5 * skin:\n    need += 1\n"
+MESH_REBUILD = "mnbr = mesh_rebuild(s, n, mnbr, walls.tri_v, skin, walls.travel)\n"
 
 MODULE = '''\
 """Generated by engine.kernels for ${combination}; do not edit."""
@@ -542,21 +712,27 @@ def _unpack(obj: str, fields) -> str:
     return "".join(f"{name} = {obj}.{name}\n" for name in fields)
 
 
-def _law_call(c: Combination, law, wall: bool) -> str:
-    """The law's call with its parameter columns and history slots filled in."""
+#: where a contact's history lives: pair k of the neighbor list, particle i's dense row of wall w, entry k of the
+#: sparse mesh contact list
+HISTORY = {"pair": "pair_hist[k, {h}]", "wall": "wall_hist[i, w, {h}]", "mesh": "mesh_hist[k, {h}]"}
+
+
+def _law_call(c: Combination, law, place: str) -> str:
+    """The law's call with its parameter columns and history slots filled in (place: pair, wall or mesh)."""
     columns = c.parameter_columns()
     offset = c.history_offsets().get(law.submodel, 0)
     names = {p: f"pp[ti, tj, {columns[p]}]" for p in law.parameters}
-    names.update({f"h{k}": (f"wall_hist[i, w, {offset + k}]" if wall else f"pair_hist[k, {offset + k}]")
-                  for k in range(law.history)})
-    return (law.wall_call if wall else law.pair).format(**names) + "\n"
+    names.update({f"h{k}": HISTORY[place].format(h=offset + k) for k in range(law.history)})
+    return (law.pair if place == "pair" else law.wall_call).format(**names) + "\n"
 
 
-def contact_code(c: Combination, wall: bool) -> str:
-    """The force of one pair (wall=False) or particle-wall (wall=True) contact, for the named laws only."""
+def contact_code(c: Combination, place: str) -> str:
+    """The force of one pair (place "pair") or particle-wall contact (a plane or cylinder: "wall", a mesh
+    triangle: "mesh"), for the named laws only."""
     tangential, rolling = c.law("tangential"), c.law("rolling")
     cohesion = c.law("cohesion")
     columns = c.reaction_columns()
+    wall = place != "pair"
     tangential_code = rolling_code = ""
 
     def partner(templates, submodel):
@@ -568,22 +744,25 @@ def contact_code(c: Combination, wall: bool) -> str:
     if tangential is not None:
         tangential_code = render(TANGENTIAL, damping="" if c.tangential_damping else "gt = 0.0",
                                  slip=SLIP[wall] if "slip" in tangential.needs else "",
-                                 law=_law_call(c, tangential, wall), partner=partner(TANGENTIAL_PARTNER, "tangential"))
+                                 law=_law_call(c, tangential, place), partner=partner(TANGENTIAL_PARTNER, "tangential"))
     if rolling is not None:
         rolling_code = render(ROLLING, spin=RELATIVE_SPIN[wall] if "relative_spin" in rolling.needs else "",
-                              law=_law_call(c, rolling, wall), partner=partner(ROLLING_PARTNER, "rolling"))
-    return render(CONTACT, normal=_law_call(c, c.law("normal"), wall),
+                              law=_law_call(c, rolling, place), partner=partner(ROLLING_PARTNER, "rolling"))
+    if place == "pair":
+        reaction = PAIR_REACTION[c.parallel]
+    else:  # a mesh adds up the contacts of its triangles; its contact point comes from the triangle
+        reaction = render(WALL_REACTION, op="+=" if place == "mesh" else "=",
+                          point="" if place == "mesh" else WALL_POINT)
+    return render(CONTACT, normal=_law_call(c, c.law("normal"), place),
                   limit_force="fn = max(fn, 0.0)" if c.limit_force else "",
-                  cohesion=_law_call(c, cohesion, wall) if cohesion is not None else "",
-                  tangential=tangential_code, rolling=rolling_code,
-                  reaction=WALL_REACTION if wall else PAIR_REACTION[c.parallel])
+                  cohesion=_law_call(c, cohesion, place) if cohesion is not None else "",
+                  tangential=tangential_code, rolling=rolling_code, reaction=reaction)
 
 
-def _reset_history(c: Combination, wall: bool) -> str:
+def _reset_history(c: Combination, place: str) -> str:
     if c.history_width == 0:
         return ""
-    return render(RESET_HISTORY, width=str(c.history_width),
-                  target="wall_hist[i, w, h]" if wall else "pair_hist[k, h]")
+    return render(RESET_HISTORY, width=str(c.history_width), target=HISTORY[place].format(h="h"))
 
 
 def generate_source(c: Combination) -> str:
@@ -593,17 +772,29 @@ def generate_source(c: Combination) -> str:
     unpack = _unpack("s", FIELD_NAMES)
     rows = c.parallel  # several threads: pair rows for the partner, gathered in the particle pass
     pair_forces = render(PAIR_FORCES, unpack=unpack, particle_head=PARTICLE_HEAD, periodic_image=periodic,
-                         row="q = rslot[k]" if rows else "", reset_history=_reset_history(c, False),
+                         row="q = rslot[k]" if rows else "", reset_history=_reset_history(c, "pair"),
                          zero_row=f"for h in range({c.reaction_width}):\n    reaction[q, h] = 0.0" if rows else "",
-                         contact=contact_code(c, False), own_sum=OWN_SUM[rows])
-    has_walls = c.planes or c.cylinders
+                         contact=contact_code(c, "pair"), own_sum=OWN_SUM[rows])
+    has_walls = c.planes or c.cylinders or c.meshes
     walls = unpack_walls = ""
     if has_walls:
-        contact, reset = contact_code(c, True), _reset_history(c, True)
-        walls = render(WALLS, particle_head=PARTICLE_HEAD,
-                       planes=render(PLANE_CONTACTS, reset_history=reset, contact=contact) if c.planes else "",
-                       cylinders=render(CYLINDER_CONTACTS, reset_history=reset, contact=contact) if c.cylinders else "")
-        unpack_walls = _unpack("walls", WALL_FIELDS[:-1]) + "nplanes = plane_axis.shape[0]\n"
+        contact, reset = contact_code(c, "wall"), _reset_history(c, "wall")
+        planes = cylinders = meshes = ""
+        if c.planes:
+            bounds = render(PLANE_BOUNDS, reset_history=reset) if c.bounded_planes else ""
+            planes = render(PLANE_CONTACTS, reset_history=reset, contact=contact, bounds=bounds)
+        if c.cylinders:
+            cylinders = render(CYLINDER_CONTACTS, reset_history=reset, contact=contact,
+                               extent=render(CYLINDER_EXTENT, reset_history=reset) if c.cylinder_extent else "",
+                               surface_velocity=CYLINDER_SPIN if c.cylinder_spin else CYLINDER_STILL)
+        if c.meshes:
+            width = str(c.history_width)
+            meshes = render(MESH_CONTACTS, contact=contact_code(c, "mesh"),
+                            take_history=render(MESH_TAKE_HISTORY, width=width) if c.history_width else "",
+                            reset_history=render(MESH_RESET, width=width) if c.history_width else "",
+                            surface_velocity=MESH_VELOCITY + (MESH_SPIN if c.mesh_rotation else ""))
+        walls = render(WALLS, particle_head=PARTICLE_HEAD, planes=planes, cylinders=cylinders, meshes=meshes)
+        unpack_walls = _unpack("walls", WALL_FIELDS[:-2]) + "nplanes = plane_point.shape[0]\n"
     if c.gravity:
         gravity_force = "mass[i] * gravity[0]", "mass[i] * gravity[1]", "mass[i] * gravity[2]"
     else:
@@ -619,7 +810,13 @@ def generate_source(c: Combination) -> str:
         clear_call = "clear_forces(s, n, gravity)"
     particle_pass = render(PARTICLE_PASS, unpack=unpack, unpack_walls=unpack_walls, gather=gather, walls=walls,
                            drift=DRIFT)
-    step_loop = render(STEP_LOOP, constants=CONSTANTS, move_planes=MOVE_PLANES if c.planes else "",
+    move_walls = (MOVE_PLANES if c.planes else "") + (
+        render(MOVE_MESHES, place=PLACE_TURNING if c.mesh_rotation else PLACE_SHIFTED,
+               turn="walls.mesh_angle[m] += walls.mesh_omega[m] * dt" if c.mesh_rotation else "") if c.mesh_motion
+        else "")
+    step_loop = render(STEP_LOOP, constants=CONSTANTS, move_walls=move_walls,
+                       mesh_travel=MESH_TRAVEL if c.mesh_motion else "",
+                       mesh_rebuild=MESH_REBUILD if c.meshes else "",
                        nwalls="walls.force.shape[0]" if has_walls else "0", clear_forces=clear_call,
                        wall_force_sum=WALL_FORCE_SUM if has_walls else "")
     called = sorted({fn for law in c.laws() for fn in law.functions}, key=lambda fn: fn.__name__)
@@ -627,6 +824,10 @@ def generate_source(c: Combination) -> str:
     if "slip_velocity(" in body:
         from .contact_laws import slip_velocity
         called.append(slip_velocity)
+    if c.meshes:  # the mesh geometry (engine/mesh.py) only where a scene has meshes
+        from . import mesh
+        called += [mesh.closest_point, mesh.edge_or_corner_counts, mesh.mesh_rebuild, mesh.place_vertices,
+                   mesh.shift_vertices, mesh.take_coplanar_history]
     imports = "".join(f"from {fn.__module__} import {fn.__name__}\n" for fn in called if fn.__name__ + "(" in body)
     source = render(MODULE, combination=repr(c), imports=imports, pair_forces=pair_forces,
                     particle_pass=particle_pass, clear_forces=clear_forces, step_loop=step_loop)
@@ -659,7 +860,8 @@ def parameter_table(c: Combination, materials: dict, interactions: dict, ntypes:
 
 # ---------------------------------------------------------------- building and caching
 
-_SOURCES = ("kernels.py", "models.py", "contact_laws.py", "neighbor.py", "clock.py", "state.py", "walls.py")
+_SOURCES = ("kernels.py", "models.py", "contact_laws.py", "neighbor.py", "clock.py", "state.py", "walls.py",
+            "mesh.py")
 
 
 def _engine_source_hash() -> str:

@@ -56,6 +56,11 @@ def insert(sim, **arrays):
         sim.nbr = nbr._replace(start=np.concatenate([nbr.start, np.full(count, nbr.start[-1], dtype=np.int64)]),
                                rstart=np.concatenate([nbr.rstart, np.full(count, nbr.rstart[-1],
                                                                             dtype=np.int64)]))
+    mesh = sim.mesh_nbr
+    if len(mesh.start) == n_old + 1:  # the new particles touch no triangle until the rebuild lists theirs
+        sim.mesh_nbr = mesh._replace(start=np.concatenate([mesh.start, np.full(count, mesh.start[-1],
+                                                                                dtype=np.int64)]),
+                                     owner=np.concatenate([mesh.owner, sim.state.pid[n_old:]]))
 
 
 def remove(sim, keep_mask) -> int:
@@ -72,7 +77,19 @@ def remove(sim, keep_mask) -> int:
     sim.state = particle_state.take(sim.state, np.nonzero(keep)[0])
     if current:
         sim.nbr = _compact_list(sim.nbr, keep)
+    if len(sim.mesh_nbr.start) == n_old + 1:
+        sim.mesh_nbr = _compact_mesh_list(sim.mesh_nbr, keep)
     return removed
+
+
+def _compact_mesh_list(mesh, keep: np.ndarray):
+    """The particle-triangle list (engine/mesh.py) of the survivors: their rows in order, with history."""
+    counts = np.diff(mesh.start)
+    entry_kept = np.repeat(keep, counts)
+    start = np.zeros(int(np.count_nonzero(keep)) + 1, dtype=np.int64)
+    np.cumsum(counts[keep], out=start[1:])
+    return mesh._replace(start=start, tri=mesh.tri[entry_kept], hist=np.ascontiguousarray(mesh.hist[entry_kept]),
+                         touch=mesh.touch[entry_kept], owner=mesh.owner[keep])
 
 
 def _compact_list(nbr, keep: np.ndarray):

@@ -18,6 +18,7 @@ import numpy as np
 from . import regions
 from .errors import InputError
 from .neighbor import overlap_statistics
+from .walls import reference_points
 
 AXES = {"x": 0, "y": 1, "z": 2}
 #: overlaps above this fraction of the smaller radius are reported (issue 2)
@@ -93,8 +94,9 @@ PARTICLE = {"x": ("x", 0), "y": ("x", 1), "z": ("x", 2), "vx": ("v", 0), "vy": (
             "fx": ("f", 0), "fy": ("f", 1), "fz": ("f", 2), "omegax": ("omega", 0), "omegay": ("omega", 1),
             "omegaz": ("omega", 2)}
 PARTICLE_QUANTITY = re.compile(r"^(%s)\[(\d+)\]$" % "|".join(PARTICLE))
-#: force the particles exert on a wall (N) at the last step, e.g. wall_fz[floor]
-WALL_QUANTITY = re.compile(r"^wall_f([xyz])\[([^\]]+)\]$")
+#: force the particles exert on a wall (N) at the last step, e.g. wall_fz[floor], and its torque (N m) about the
+#: wall's reference point (engine.walls.reference_points: a mesh's rotation point), e.g. wall_tz[drum]
+WALL_QUANTITY = re.compile(r"^wall_([ft])([xyz])\[([^\]]+)\]$")
 
 
 #: sums over the particles a selection picks: NAME[type=T], NAME[region=R] or NAME[type=T,region=R]
@@ -182,10 +184,17 @@ def evaluate(sim, name: str):
     m = WALL_QUANTITY.match(name)
     if m:
         names = [w["name"] for w in sim.walls]
-        if m.group(2) not in names:
-            raise InputError(f"quantity '{name}' names no wall '{m.group(2)}' (walls: {', '.join(names)})")
-        k = names.index(m.group(2))
-        return float(sim.wall_force[k, AXES[m.group(1)]]) if k < len(sim.wall_force) else 0.0
+        if m.group(3) not in names:
+            raise InputError(f"quantity '{name}' names no wall '{m.group(3)}' (walls: {', '.join(names)})")
+        k = names.index(m.group(3))
+        if k >= len(sim.wall_force):
+            return 0.0
+        axis = AXES[m.group(2)]
+        if m.group(1) == "f":
+            return float(sim.wall_force[k, axis])
+        # the kernel sums torques about the origin: about point p it is T_0 - p x F
+        p = reference_points(sim)[k]
+        return float(sim.wall_torque[k, axis] - np.cross(p, sim.wall_force[k])[axis])
     m = PARTICLE_QUANTITY.match(name)
     if m:
         where = np.nonzero(sim.state.pid == int(m.group(2)))[0]
@@ -200,4 +209,4 @@ def evaluate(sim, name: str):
 
 def wall_names(names) -> list:
     """(quantity, wall name) of the per-wall quantities among names."""
-    return [(q, m.group(2)) for q in names for m in [WALL_QUANTITY.match(q)] if m]
+    return [(q, m.group(3)) for q in names for m in [WALL_QUANTITY.match(q)] if m]

@@ -14,6 +14,7 @@ import numpy as np
 
 from . import state as particle_state
 from .errors import InputError, output_failure
+from .mesh import MeshList
 from .neighbor import from_half_list
 from .script import Fields
 
@@ -32,13 +33,40 @@ def write_restart(sim, path: str):
             np.savez(handle, format=RESTART_FORMAT, step=sim.step, time=sim.time,
                      dt=np.nan if sim.dt is None else sim.dt, skin=sim.skin, lo=sim.lo, hi=sim.hi,
                      periodic=sim.periodic, next_id=sim.next_id, dirty=sim.dirty,
-                     walls=json.dumps(sim.walls), plane_pos=sim.plane_pos, wall_force=sim.wall_force,
+                     walls=json.dumps(sim.walls), **wall_arrays(sim),
                      modifier_state=json.dumps(modifier_state(sim)),
                      **particle_state.as_arrays(sim.state),
                      **{key: getattr(sim.nbr, name) for key, name in NEIGHBOR_ARRAYS.items()})
     except OSError as exc:
         raise output_failure("restart file", path, exc) from None
     sim.log.info(f"wrote restart file {path} at step {sim.step}")
+
+
+def wall_arrays(sim) -> dict:
+    """What the walls carry between runs: plane points, mesh triangles (as placed), angles and shifts, the
+    last wall forces and torques, and the mesh contact list with its history."""
+    meshes = [w["name"] for w in sim.walls if w["shape"] == "mesh"]
+    triangles = [sim.mesh_triangles[name] for name in meshes]
+    return dict(plane_point=sim.plane_point, wall_force=sim.wall_force, wall_torque=sim.wall_torque,
+                mesh_angle=sim.mesh_angle, mesh_shift=sim.mesh_shift,
+                mesh_counts=np.array([len(t) for t in triangles], dtype=np.int64),
+                mesh_triangles=np.concatenate(triangles) if triangles else np.zeros((0, 3, 3)),
+                **{f"mesh_{key}": getattr(sim.mesh_nbr, key) for key in ("start", "tri", "hist", "owner")})
+
+
+def _restore_walls(sim, data: dict, walls: list):
+    sim.walls = walls
+    sim.plane_point = data["plane_point"].copy()
+    sim.wall_force = data["wall_force"].copy()
+    sim.wall_torque = data["wall_torque"].copy()
+    sim.mesh_angle = data["mesh_angle"].copy()
+    sim.mesh_shift = data["mesh_shift"].copy()
+    bounds = np.concatenate([[0], np.cumsum(data["mesh_counts"])])
+    names = [w["name"] for w in walls if w["shape"] == "mesh"]
+    sim.mesh_triangles = {name: data["mesh_triangles"][bounds[k]:bounds[k + 1]].copy() for k, name in enumerate(names)}
+    sim.mesh_nbr = MeshList(data["mesh_start"].copy(), data["mesh_tri"].astype(np.int32),
+                            data["mesh_hist"].copy(), np.zeros(len(data["mesh_tri"]), dtype=np.uint8),
+                            data["mesh_owner"].copy())
 
 
 def modifier_state(sim) -> dict:
@@ -86,9 +114,7 @@ def read_restart(sim, path: str, fields: Fields):
     sim.lo, sim.hi = data["lo"].copy(), data["hi"].copy()
     sim.periodic = data["periodic"].copy()
     sim.next_id = int(data["next_id"])
-    sim.walls = walls
-    sim.plane_pos = data["plane_pos"].copy()
-    sim.wall_force = data["wall_force"].copy()
+    _restore_walls(sim, data, walls)
     sim.state = particle_state.from_arrays(data)
     start, j, hist = (np.ascontiguousarray(data[key]) for key in NEIGHBOR_ARRAYS)
     sim.nbr = from_half_list(start, j.astype(np.int32), hist, sim.n, 3)
@@ -117,7 +143,10 @@ _RESTART_SHAPES = {
     "nbr_start": ("i", (None,)), "nbr_j": ("i", (None,)), "pair_hist": ("f", (None, None)),
     "wall_hist": ("f", (None, None, None)), "step": ("i", ()), "time": ("f", ()), "dt": ("f", ()),
     "skin": ("f", ()), "lo": ("f", (3,)), "hi": ("f", (3,)), "periodic": ("b", (3,)), "next_id": ("i", ()),
-    "dirty": ("b", ()), "walls": ("U", ()), "plane_pos": ("f", (None,)), "wall_force": ("f", (None, 3)),
+    "dirty": ("b", ()), "walls": ("U", ()), "plane_point": ("f", (None, 3)), "wall_force": ("f", (None, 3)),
+    "wall_torque": ("f", (None, 3)), "mesh_angle": ("f", (None,)), "mesh_shift": ("f", (None, 3)),
+    "mesh_counts": ("i", (None,)), "mesh_triangles": ("f", (None, 3, 3)), "mesh_start": ("i", (None,)),
+    "mesh_tri": ("i", (None,)), "mesh_hist": ("f", (None, None)), "mesh_owner": ("i", (None,)),
 }
 
 
@@ -160,8 +189,19 @@ def _check_restart(data: dict) -> list[dict]:
     if not isinstance(walls, list) or not all(_wall_ok(w) for w in walls):
         raise ValueError("the wall list is not a list of wall definitions")
     planes = sum(1 for w in walls if w["shape"] == "plane")
-    if data["plane_pos"].shape[0] != planes:
-        raise ValueError(f"{data['plane_pos'].shape[0]} plane positions for {planes} planes")
+    if data["plane_point"].shape[0] != planes:
+        raise ValueError(f"{data['plane_point'].shape[0]} plane points for {planes} planes")
+    meshes = sum(1 for w in walls if w["shape"] == "mesh")
+    if not (len(data["mesh_counts"]) == len(data["mesh_angle"]) == len(data["mesh_shift"]) == meshes
+            and int(data["mesh_counts"].sum()) == len(data["mesh_triangles"]) and np.all(data["mesh_counts"] > 0)):
+        raise ValueError(f"the mesh arrays do not fit the {meshes} mesh walls")
+    if len(data["wall_force"]) not in (0, len(walls)) or len(data["wall_torque"]) != len(data["wall_force"]):
+        raise ValueError(f"wall forces and torques do not fit the {len(walls)} walls")
+    ms, mt = data["mesh_start"], data["mesh_tri"]
+    if (len(ms) != len(data["mesh_owner"]) + 1 or ms[0] != 0 or np.any(np.diff(ms) < 0) or ms[-1] != len(mt)
+            or (len(mt) and (mt.min() < 0 or mt.max() >= len(data["mesh_triangles"])))
+            or data["mesh_hist"].shape[0] != len(mt)):
+        raise ValueError("the mesh contact list does not fit the meshes")
     return walls
 
 
@@ -194,6 +234,9 @@ def _wall_ok(w) -> bool:
     if not (isinstance(w, dict) and isinstance(w.get("name"), str) and isinstance(w.get("type"), int)):
         return False
     if w.get("shape") == "plane":
-        return w.get("axis") in (0, 1, 2) and numbers([w.get("position")], 1) and numbers(w.get("velocity"), 3)
-    return (w.get("shape") == "cylinder" and numbers(w.get("center"), 2) and numbers([w.get("radius")], 1)
+        return numbers(w.get("point"), 3) and numbers(w.get("normal"), 3) and numbers(w.get("velocity"), 3)
+    if w.get("shape") == "mesh":
+        return isinstance(w.get("file"), str) and numbers(w.get("velocity"), 3)
+    return (w.get("shape") == "cylinder" and numbers(w.get("point"), 3) and numbers(w.get("axis"), 3)
+            and numbers([w.get("radius")], 1) and numbers([w.get("angular_velocity")], 1)
             and w.get("side") in ("inside", "outside"))

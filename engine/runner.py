@@ -17,7 +17,8 @@ from .kernels import Combination, Constants, build_kernel, parameter_table
 from .neighbor import empty_list, lost_record
 from .quantities import OVERLAP_WARN_RATIO
 from .script import Fields
-from .walls import wall_set
+from .mesh import empty_mesh_list, mesh_rebuild
+from .walls import dense_count, features as wall_features, wall_set
 
 
 def combination(sim, parallel: bool = False) -> Combination:
@@ -27,8 +28,7 @@ def combination(sim, parallel: bool = False) -> Combination:
     return Combination(parallel=parallel, normal=m["normal"], tangential=m["tangential"], cohesion=m["cohesion"],
                        rolling=m["rolling"], limit_force=m["limit_force"],
                        tangential_damping=m["tangential_damping"],
-                       planes=any(w["shape"] == "plane" for w in sim.walls),
-                       cylinders=any(w["shape"] == "cylinder" for w in sim.walls),
+                       **wall_features(sim.walls),
                        gravity=any(mod.acceleration() is not None for mod in sim.active_modifiers()),
                        periodic=tuple(bool(p) for p in sim.periodic))
 
@@ -83,7 +83,9 @@ def fit_history(sim, combo: Combination):
     if nbr.reaction.shape != (len(nbr.j), combo.reaction_width):
         nbr = nbr._replace(reaction=np.zeros((len(nbr.j), combo.reaction_width)))
     sim.nbr = nbr
-    sim.state = particle_state.fit_wall_history(sim.state, len(sim.walls), width)
+    if sim.mesh_nbr.hist.shape[1] != width:  # another contact model: mesh contacts start without history
+        sim.mesh_nbr = empty_mesh_list(0, width)
+    sim.state = particle_state.fit_wall_history(sim.state, dense_count(sim.walls), width)
 
 
 def next_stop(sim, end: int) -> int:
@@ -109,19 +111,26 @@ def run(sim, fields: Fields):
     pp = parameter_table(combo, sim.materials, sim.interactions, max(sim.materials))
     if sim.wall_force.shape[0] != len(sim.walls):
         sim.wall_force = np.zeros((len(sim.walls), 3))
-    walls = wall_set(sim.walls, sim.plane_pos, sim.wall_force)
+        sim.wall_torque = np.zeros((len(sim.walls), 3))
+    walls = wall_set(sim)
     constants = Constants(dt=sim.dt, characteristic_velocity=sim.model["characteristic_velocity"],
                           gravity=sim.gravity_vector(), lo=sim.lo, hi=sim.hi, periodic=sim.periodic, skin=sim.skin)
     started_with = sim.n
     created = sim.dirty
     if sim.dirty:
         lost = lost_record(sim.n)
-        n, sim.nbr = kernel.setup(sim.state, sim.n, sim.nbr, walls, pp, constants, sim.step, lost)
+        n, sim.nbr, sim.mesh_nbr = kernel.setup(sim.state, sim.n, sim.nbr, sim.mesh_nbr, walls, pp, constants,
+                                                sim.step, lost)
         sim.state = particle_state.trimmed(sim.state, n)
         guards.report_lost(sim, lost, fields.where, started_with)
         sim.dirty = False
     # a zero-step call compiles run_steps (or loads it from the disk cache) outside the timed loop
-    kernel.run_steps(sim.state, sim.n, sim.nbr, walls, pp, constants, sim.step, 0, np.zeros(3), lost_record(0))
+    kernel.run_steps(sim.state, sim.n, sim.nbr, sim.mesh_nbr, walls, pp, constants, sim.step, 0, np.zeros(3),
+                     lost_record(0))
+    if combo.meshes:
+        # the mesh contact list of the particles and mesh placement now (walls or particles may have changed
+        # since the last run; the list only says which triangles are near, so building it anew changes no force)
+        sim.mesh_nbr = mesh_rebuild(sim.state, sim.n, sim.mesh_nbr, walls.tri_v, sim.skin, walls.travel)
     # the overlap check between chunks is compiled too: not inside the timed loop
     _, n_large, worst = quantities.overlaps(sim)
     sim.timing["compile"] += time.perf_counter() - t0  # first call of a kernel compiles or loads it
@@ -156,8 +165,8 @@ def run(sim, fields: Fields):
         stop = next_stop(sim, end)
         n = sim.n
         lost = lost_record(n)
-        status, bad, done, rebuilt, kept, sim.nbr = kernel.run_steps(
-            sim.state, n, sim.nbr, walls, pp, constants, sim.step, stop - sim.step, timers, lost)
+        status, bad, done, rebuilt, kept, sim.nbr, sim.mesh_nbr = kernel.run_steps(
+            sim.state, n, sim.nbr, sim.mesh_nbr, walls, pp, constants, sim.step, stop - sim.step, timers, lost)
         sim.state = particle_state.trimmed(sim.state, kept)
         particle_steps += done * n
         rebuilds += rebuilt

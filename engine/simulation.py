@@ -14,6 +14,7 @@ from . import commands, modifiers
 from . import threads as thread_pool
 from . import state as particle_state
 from .log import Log
+from .mesh import empty_mesh_list
 from .neighbor import empty_list
 from .output import Output
 
@@ -37,12 +38,17 @@ class Simulation:
         self.materials: dict[int, tuple] = {}  # type -> (Young's modulus Pa, Poisson ratio, density kg/m^3)
         self.interactions: dict[tuple, dict] = {}  # (type a <= type b) -> restitution, friction, ...
         self.model: dict | None = None  # the contact model's submodels and options
-        self.walls: list[dict] = []  # planes first, then cylinders
+        self.walls: list[dict] = []  # planes, then cylinders, then meshes (engine/walls.py)
         self.regions: dict[str, dict] = {}  # name -> region (engine.regions), from create region
-        self.plane_pos = np.zeros(0)  # m, moves with the planes' axial velocity
-        self.wall_force = np.zeros((0, 3))  # N, on each wall (planes, then cylinders) at the last step
+        self.plane_point = np.zeros((0, 3))  # m, a point of each plane; moves with the plane's velocity
+        self.mesh_triangles: dict[str, np.ndarray] = {}  # mesh wall name -> placed triangles (m, 3, 3), m
+        self.mesh_angle = np.zeros(0)  # rad, each mesh's rotation so far
+        self.mesh_shift = np.zeros((0, 3))  # m, each mesh's translation so far
+        self.wall_force = np.zeros((0, 3))  # N, on each wall at the last step
+        self.wall_torque = np.zeros((0, 3))  # N m, on each wall about the origin at the last step
         self.state = particle_state.empty()
         self.nbr = empty_list()
+        self.mesh_nbr = empty_mesh_list()  # particle-triangle contacts (engine/mesh.py)
         self.next_id = 1
         self.modifiers: dict[str, modifiers.Modifier] = {}
         self.active: list[str] = []  # fixed modifiers, in the order they were fixed

@@ -108,9 +108,26 @@ def test_generated_kernel_holds_only_named_effects():
     full = generate_source(Combination(normal="hertz", tangential="history", cohesion="sjkr", rolling="epsd2",
                                        planes=True, cylinders=True, gravity=True, periodic=(True, False, False)))
     for present in ("tangential_history(", "sjkr_pair_force(", "sjkr_wall_force(", "rolling_epsd2(",
-                    "plane_pos[w]", "cyl_radius[q]", "pair_hist[k, 3]", "gravity[0]", "dx -= box[0]"):
+                    "plane_point[w, 0]", "cyl_radius[q]", "pair_hist[k, 3]", "gravity[0]", "dx -= box[0]"):
         assert present in full
     assert "dy -= box" not in full
+    # walls: no mesh code without meshes, no bounds, extent, spin or rotation code unless a wall asks for it
+    for absent in ("closest_point(", "mesh_rebuild(", "place_vertices(", "plane_lo[w", "cyl_lo[q]", "cyl_omega[q]",
+                   "mesh_omega["):
+        assert absent not in full
+    still = generate_source(Combination(normal="hertz", tangential="history", meshes=True))
+    for present in ("closest_point(", "edge_or_corner_counts(", "mesh_rebuild(", "take_coplanar_history("):
+        assert present in still
+    for absent in ("place_vertices(", "mesh_omega[", "nplanes = 0", "cyl_radius[q]"):
+        assert absent not in still
+    moving = generate_source(Combination(normal="hertz", tangential="none", meshes=True, mesh_motion=True))
+    assert "shift_vertices(" in moving and "place_vertices(" not in moving and "take_coplanar_history(" not in moving
+    assert "mesh_omega" not in moving.replace("mesh_omega = walls.mesh_omega", "")
+    turning = generate_source(Combination(normal="hertz", meshes=True, mesh_motion=True, mesh_rotation=True,
+                                          planes=True, bounded_planes=True, cylinders=True, cylinder_spin=True,
+                                          cylinder_extent=True))
+    for present in ("mesh_omega[mk]", "plane_lo[w, 0]", "cyl_lo[q]", "cyl_omega[q]"):
+        assert present in turning
 
 
 def test_timestep_above_critical_warns_and_fails_in_strict_mode(engine_run):

@@ -1,0 +1,477 @@
+"""Triangle mesh walls: loading STL files, their topology, sphere-triangle contact and the sparse contact list.
+
+A mesh wall is a set of triangles (m, from an ASCII or binary STL file read by VTK's vtkSTLReader) placed with
+scale, rotation and translation on load, and optionally moving: translation at a velocity, rotation about an
+axis through a point at an angular velocity (a rotating drum, a mixer blade).
+
+**Contact** (as LIGGGHTS' mesh/surface, engine/README.md gives the sources): a sphere of radius r at x touches
+triangle t when the point c of t closest to x is nearer than r. c lies in the face, on an edge or on a corner
+of t (Ericson, Real-Time Collision Detection, 2005, 5.1.5: the Voronoi regions of the triangle). A face
+contact has the normal of the face; an edge or corner contact the direction x - c. So that a sphere touching a
+mesh is pushed once per point of the surface it touches, whatever the triangulation:
+
+- a face contact always counts;
+- an edge or corner contact counts only where it is the closest point of every triangle sharing that edge or
+  corner (otherwise a neighbouring triangle is closer to the sphere, and that one pushes: this removes the
+  edges between coplanar triangles and the false contacts at convex edges next to a face contact), and only
+  once: by the lowest-numbered of those triangles.
+
+**Sparse history**: each particle keeps a short list of the triangles within r + skin of its centre (CSR rows,
+built at every neighbor rebuild on a cell grid of the triangles), with the contact history of each entry. The
+memory is proportional to the particles near the mesh, never particles x triangles. History follows a particle
+by its id through re-ordering and through particles inserted or removed between steps.
+
+**Motion**: the vertices are recomputed every step from their reference positions: v = R(angle) (v0 - p0) + p0
++ shift, with angle = sum of omega dt and shift = sum of velocity dt (Rodrigues' rotation formula). The lists are
+rebuilt when the mesh may have moved by more than skin/2 since the last rebuild (the particles' own criterion,
+so that together they never close more than the skin).
+"""
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+from pathlib import Path
+
+import numpy as np
+from numba import njit, prange
+
+from .neighbor import PARALLEL
+
+#: start (n+1): rows of particle i are start[i]..start[i+1]; tri (int32): the triangle of each entry; hist
+#: (entries, width): contact history; touch (entries, uint8): the entry is a contact at this step; owner (n):
+#: the particle id each row belonged to when it was built
+MeshList = namedtuple("MeshList", ["start", "tri", "hist", "touch", "owner"])
+
+#: contact regions of closest_point
+FACE, EDGE0, EDGE1, EDGE2, CORNER0, CORNER1, CORNER2 = range(7)
+
+
+def empty_mesh_list(n: int = 0, history: int = 0) -> MeshList:
+    return MeshList(np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros((0, history)),
+                    np.zeros(0, dtype=np.uint8), np.full(n, -1, dtype=np.int64))
+
+
+# ---------------------------------------------------------------- loading and topology
+
+class MeshError(ValueError):
+    """A mesh file that cannot be used (the caller names the command and field)."""
+
+
+def read_stl(path: str) -> np.ndarray:
+    """Triangles (m, 3, 3) of an ASCII or binary STL file, in file order, in the file's units.
+
+    The coordinates are single precision, as binary STL stores them (VTK reads ASCII files into single
+    precision too): 0.04 in a file is 0.03999999910593033. Meshes meant to coincide with other walls to
+    round-off use coordinates that single precision holds exactly (0.0390625 = 5/128, 0.25, ...)."""
+    import vtk  # heavy: only scenes with meshes load it
+
+    file = Path(path)
+    if not file.is_file():
+        raise MeshError(f"file '{path}' does not exist")
+    reader = vtk.vtkSTLReader()
+    reader.SetFileName(str(file))
+    reader.MergingOff()  # keep every triangle's own three points; welding is done here, exactly
+    # VTK reports a broken file on stderr itself; the engine says it in one line instead
+    vtk.vtkLogger.SetStderrVerbosity(vtk.vtkLogger.VERBOSITY_OFF)
+    errors = vtk.vtkStringOutputWindow()
+    previous = vtk.vtkOutputWindow.GetInstance()
+    vtk.vtkOutputWindow.SetInstance(errors)
+    try:
+        reader.Update()
+    finally:
+        vtk.vtkOutputWindow.SetInstance(previous)
+    data = reader.GetOutput()
+    if reader.GetErrorCode() or data is None or data.GetNumberOfPolys() == 0:
+        raise MeshError(f"file '{path}' is not an STL file with triangles")
+    from vtk.util.numpy_support import vtk_to_numpy
+
+    points = vtk_to_numpy(data.GetPoints().GetData()).astype(np.float64)
+    cells = vtk_to_numpy(data.GetPolys().GetData())
+    if len(cells) % 4 or np.any(cells[::4] != 3):
+        raise MeshError(f"file '{path}' has faces that are not triangles")
+    triangles = points[cells.reshape(-1, 4)[:, 1:]]
+    if not np.all(np.isfinite(triangles)):
+        raise MeshError(f"file '{path}' has vertices that are not finite numbers")
+    return np.ascontiguousarray(triangles)
+
+
+def rotation_matrix(axis, angle: float) -> np.ndarray:
+    """Rotation by angle (rad) about the unit vector of axis, right-handed (Rodrigues)."""
+    k = np.asarray(axis, dtype=np.float64)
+    k = k / np.linalg.norm(k)
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * (kx @ kx)
+
+
+def place(triangles: np.ndarray, scale: float = 1.0, rotate=None, translate=None) -> np.ndarray:
+    """Triangles scaled (about the origin), then rotated (rotate = (axis, angle in degrees) about the origin),
+    then translated; the identity leaves every coordinate bitwise as it was."""
+    out = triangles * scale if scale != 1.0 else triangles.copy()
+    if rotate is not None and rotate[1] % 360.0 != 0.0:
+        out = out @ rotation_matrix(rotate[0], math.radians(rotate[1])).T
+    if translate is not None and any(translate):
+        out = out + np.asarray(translate, dtype=np.float64)
+    return np.ascontiguousarray(out)
+
+
+def degenerate(triangles: np.ndarray) -> np.ndarray:
+    """Indices of triangles of zero area (they have no normal)."""
+    cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    return np.nonzero(np.einsum("ij,ij->i", cross, cross) == 0.0)[0]
+
+
+def topology(triangles: np.ndarray, first: int = 0):
+    """(vertex ids (m, 3), fan_start, fan_tri): corners with bitwise equal coordinates are one vertex; the
+    triangles around vertex v are fan_tri[fan_start[v]:fan_start[v+1]] (numbered from `first`, increasing)."""
+    m = len(triangles)
+    _, vid = np.unique(triangles.reshape(-1, 3), axis=0, return_inverse=True)
+    vid = vid.reshape(m, 3).astype(np.int64)
+    nv = int(vid.max()) + 1 if m else 0
+    owner = np.repeat(np.arange(m, dtype=np.int64), 3) + first
+    order = np.lexsort((owner, vid.ravel()))
+    fan_tri = owner[order]
+    fan_start = np.zeros(nv + 1, dtype=np.int64)
+    np.add.at(fan_start, vid.ravel() + 1, 1)
+    fan_start = np.cumsum(fan_start)
+    return vid, fan_start, fan_tri
+
+
+def normals(triangles: np.ndarray) -> np.ndarray:
+    """Unit normals (m, 3) by the right-hand rule on the corner order."""
+    cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    return cross / np.sqrt(np.einsum("ij,ij->i", cross, cross))[:, None]
+
+
+# ---------------------------------------------------------------- compiled geometry
+
+@njit(cache=True, error_model="numpy", inline="always")
+def closest_point(px, py, pz, tv, t):
+    """The point of triangle t (corners tv[t, 0..2]) closest to p, and its region (FACE, EDGE0 = corners 0-1,
+    EDGE1 = 1-2, EDGE2 = 2-0, CORNER0..2). Ericson (2005) 5.1.5, by the signs of the barycentric parameters."""
+    ax = tv[t, 0, 0]
+    ay = tv[t, 0, 1]
+    az = tv[t, 0, 2]
+    abx = tv[t, 1, 0] - ax
+    aby = tv[t, 1, 1] - ay
+    abz = tv[t, 1, 2] - az
+    acx = tv[t, 2, 0] - ax
+    acy = tv[t, 2, 1] - ay
+    acz = tv[t, 2, 2] - az
+    apx = px - ax
+    apy = py - ay
+    apz = pz - az
+    d1 = abx * apx + aby * apy + abz * apz
+    d2 = acx * apx + acy * apy + acz * apz
+    if d1 <= 0.0 and d2 <= 0.0:
+        return ax, ay, az, 4
+    bpx = px - tv[t, 1, 0]
+    bpy = py - tv[t, 1, 1]
+    bpz = pz - tv[t, 1, 2]
+    d3 = abx * bpx + aby * bpy + abz * bpz
+    d4 = acx * bpx + acy * bpy + acz * bpz
+    if d3 >= 0.0 and d4 <= d3:
+        return tv[t, 1, 0], tv[t, 1, 1], tv[t, 1, 2], 5
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        s = d1 / (d1 - d3)
+        return ax + s * abx, ay + s * aby, az + s * abz, 1
+    cpx = px - tv[t, 2, 0]
+    cpy = py - tv[t, 2, 1]
+    cpz = pz - tv[t, 2, 2]
+    d5 = abx * cpx + aby * cpy + abz * cpz
+    d6 = acx * cpx + acy * cpy + acz * cpz
+    if d6 >= 0.0 and d5 <= d6:
+        return tv[t, 2, 0], tv[t, 2, 1], tv[t, 2, 2], 6
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        s = d2 / (d2 - d6)
+        return ax + s * acx, ay + s * acy, az + s * acz, 3
+    va = d3 * d6 - d5 * d4
+    if va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0:
+        s = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        bx = tv[t, 1, 0]
+        by = tv[t, 1, 1]
+        bz = tv[t, 1, 2]
+        return bx + s * (tv[t, 2, 0] - bx), by + s * (tv[t, 2, 1] - by), bz + s * (tv[t, 2, 2] - bz), 2
+    denom = 1.0 / (va + vb + vc)
+    v = vb * denom
+    w = vc * denom
+    return ax + abx * v + acx * w, ay + aby * v + acy * w, az + abz * v + acz * w, 0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _shares(vid, t, a, b):
+    """Triangle t has vertex a, and vertex b too (b < 0: any)."""
+    has_a = vid[t, 0] == a or vid[t, 1] == a or vid[t, 2] == a
+    if b < 0:
+        return has_a
+    return has_a and (vid[t, 0] == b or vid[t, 1] == b or vid[t, 2] == b)
+
+
+@njit(cache=True, error_model="numpy")
+def edge_or_corner_counts(px, py, pz, cx, cy, cz, region, t, tv, vid, fan_start, fan_tri, tol_sq):
+    """Whether the edge or corner contact of triangle t at c counts (module docstring): c is the closest point
+    of every triangle sharing that edge or corner, none of them has it in its face (nor, for a corner, on an
+    edge), and t is the lowest-numbered of them."""
+    if region <= 3:
+        a = vid[t, region - 1]
+        b = vid[t, region % 3]
+    else:
+        a = vid[t, region - 4]
+        b = -1
+    for k in range(fan_start[a], fan_start[a + 1]):
+        u = fan_tri[k]
+        if u == t or not _shares(vid, u, a, b):
+            continue
+        qx, qy, qz, r = closest_point(px, py, pz, tv, u)
+        if r == 0 or (b < 0 and r <= 3):
+            return False
+        dx = qx - cx
+        dy = qy - cy
+        dz = qz - cz
+        if dx * dx + dy * dy + dz * dz > tol_sq:
+            return False
+        if u < t:
+            return False
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def take_coplanar_history(hist, tri, touch, first, last, k, tv, tn, tol):
+    """A new contact of entry k (triangle t) takes over the history of a triangle in the same plane that the
+    particle was touching (its entry still holds history and is not a contact now): a sphere rolling or
+    sliding across the edge between two triangles of a flat face keeps its shear history, as on a plane."""
+    t = tri[k]
+    for q in range(first, last):
+        if q == k or (q < k and touch[q] == 1):
+            continue
+        held = False
+        for h in range(hist.shape[1]):
+            if hist[q, h] != 0.0:
+                held = True
+        if not held:
+            continue
+        u = tri[q]
+        parallel = tn[t, 0] * tn[u, 0] + tn[t, 1] * tn[u, 1] + tn[t, 2] * tn[u, 2]
+        if abs(parallel) < 1.0 - 1e-12:
+            continue
+        offset = ((tv[u, 0, 0] - tv[t, 0, 0]) * tn[t, 0] + (tv[u, 0, 1] - tv[t, 0, 1]) * tn[t, 1]
+                  + (tv[u, 0, 2] - tv[t, 0, 2]) * tn[t, 2])
+        if abs(offset) > tol:
+            continue
+        for h in range(hist.shape[1]):
+            hist[k, h] = hist[q, h]
+            hist[q, h] = 0.0
+        return
+
+
+@njit(cache=True, error_model="numpy")
+def triangle_distance(px, py, pz, tv, t):
+    qx, qy, qz, _ = closest_point(px, py, pz, tv, t)
+    return math.sqrt((px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2)
+
+
+# ---------------------------------------------------------------- motion
+
+@njit(cache=True, error_model="numpy")
+def place_vertices(tri_v0, tri_mesh, point0, axis, angle, shift, tri_v, tri_n, rotating):
+    """Current corners and normals of every triangle: v = R(angle) (v0 - p0) + p0 + shift (Rodrigues)."""
+    c = 1.0
+    s = 0.0
+    kx = ky = kz = 0.0
+    for t in range(tri_v0.shape[0]):
+        m = tri_mesh[t]
+        if rotating:
+            c = math.cos(angle[m])
+            s = math.sin(angle[m])
+            kx = axis[m, 0]
+            ky = axis[m, 1]
+            kz = axis[m, 2]
+        for k in range(3):
+            ux = tri_v0[t, k, 0] - point0[m, 0]
+            uy = tri_v0[t, k, 1] - point0[m, 1]
+            uz = tri_v0[t, k, 2] - point0[m, 2]
+            if rotating:
+                dot = kx * ux + ky * uy + kz * uz
+                rx = ux * c + (ky * uz - kz * uy) * s + kx * dot * (1.0 - c)
+                ry = uy * c + (kz * ux - kx * uz) * s + ky * dot * (1.0 - c)
+                rz = uz * c + (kx * uy - ky * ux) * s + kz * dot * (1.0 - c)
+                ux = rx
+                uy = ry
+                uz = rz
+            tri_v[t, k, 0] = ux + point0[m, 0] + shift[m, 0]
+            tri_v[t, k, 1] = uy + point0[m, 1] + shift[m, 1]
+            tri_v[t, k, 2] = uz + point0[m, 2] + shift[m, 2]
+        e1x = tri_v[t, 1, 0] - tri_v[t, 0, 0]
+        e1y = tri_v[t, 1, 1] - tri_v[t, 0, 1]
+        e1z = tri_v[t, 1, 2] - tri_v[t, 0, 2]
+        e2x = tri_v[t, 2, 0] - tri_v[t, 0, 0]
+        e2y = tri_v[t, 2, 1] - tri_v[t, 0, 1]
+        e2z = tri_v[t, 2, 2] - tri_v[t, 0, 2]
+        nx = e1y * e2z - e1z * e2y
+        ny = e1z * e2x - e1x * e2z
+        nz = e1x * e2y - e1y * e2x
+        norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+        tri_n[t, 0] = nx / norm
+        tri_n[t, 1] = ny / norm
+        tri_n[t, 2] = nz / norm
+
+
+@njit(cache=True, error_model="numpy")
+def shift_vertices(tri_v0, tri_mesh, shift, tri_v):
+    """Current corners of meshes that only translate: v = v0 + shift (the normals stay)."""
+    for t in range(tri_v0.shape[0]):
+        m = tri_mesh[t]
+        for k in range(3):
+            for a in range(3):
+                tri_v[t, k, a] = tri_v0[t, k, a] + shift[m, a]
+
+
+# ---------------------------------------------------------------- the sparse contact list
+
+@njit(cache=True, error_model="numpy")
+def _triangle_grid(tv, reach, n):
+    """Cell grid over the triangles' bounding box inflated by reach: (origin, cell, nc, cell_start, cell_tri),
+    every triangle listed in every cell its bounding box inflated by reach touches."""
+    m = tv.shape[0]
+    lo = np.full(3, np.inf)
+    hi = np.full(3, -np.inf)
+    for t in range(m):
+        for k in range(3):
+            for a in range(3):
+                lo[a] = min(lo[a], tv[t, k, a])
+                hi[a] = max(hi[a], tv[t, k, a])
+    origin = lo - reach
+    extent = hi - lo + 2.0 * reach
+    cell = reach
+    nc = np.ones(3, dtype=np.int64)
+    while True:
+        for a in range(3):
+            nc[a] = int(extent[a] / cell) + 1
+        if nc[0] * nc[1] * nc[2] <= 8 * (m + n) + 64:
+            break
+        cell *= 1.25
+    ncells = nc[0] * nc[1] * nc[2]
+    ranges = np.empty((m, 3, 2), dtype=np.int64)
+    cell_start = np.zeros(ncells + 1, dtype=np.int64)
+    for t in range(m):
+        for a in range(3):
+            tlo = min(tv[t, 0, a], tv[t, 1, a], tv[t, 2, a]) - reach
+            thi = max(tv[t, 0, a], tv[t, 1, a], tv[t, 2, a]) + reach
+            ranges[t, a, 0] = max(int((tlo - origin[a]) / cell), 0)
+            ranges[t, a, 1] = min(int((thi - origin[a]) / cell), nc[a] - 1)
+        for cx in range(ranges[t, 0, 0], ranges[t, 0, 1] + 1):
+            for cy in range(ranges[t, 1, 0], ranges[t, 1, 1] + 1):
+                for cz in range(ranges[t, 2, 0], ranges[t, 2, 1] + 1):
+                    cell_start[(cx * nc[1] + cy) * nc[2] + cz + 1] += 1
+    for c in range(ncells):
+        cell_start[c + 1] += cell_start[c]
+    fill = cell_start[:-1].copy()
+    cell_tri = np.empty(cell_start[ncells], dtype=np.int32)
+    for t in range(m):  # in increasing t: each cell lists its triangles in increasing order
+        for cx in range(ranges[t, 0, 0], ranges[t, 0, 1] + 1):
+            for cy in range(ranges[t, 1, 0], ranges[t, 1, 1] + 1):
+                for cz in range(ranges[t, 2, 0], ranges[t, 2, 1] + 1):
+                    key = (cx * nc[1] + cy) * nc[2] + cz
+                    cell_tri[fill[key]] = t
+                    fill[key] += 1
+    return origin, cell, nc, cell_start, cell_tri
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _cell_of(px, py, pz, origin, cell, nc):
+    """Cell key of a point, -1 outside the grid."""
+    key = 0
+    for a in range(3):
+        p = px if a == 0 else (py if a == 1 else pz)
+        c = (p - origin[a]) / cell
+        if not (c >= 0.0 and c < nc[a]):
+            return -1
+        key = key * nc[a] + int(c)
+    return key
+
+
+@njit(cache=True, error_model="numpy", parallel=PARALLEL)
+def _scan(x, radius, n, tv, skin, origin, cell, nc, cell_start, cell_tri, start, out, write):
+    """Per particle: the triangles of its cell within radius + skin of its centre. Counts into start[i + 1]
+    (write False) or writes them into out from start[i] (write True)."""
+    for i in prange(n):
+        key = _cell_of(x[i, 0], x[i, 1], x[i, 2], origin, cell, nc)
+        count = 0
+        if key >= 0:
+            reach = radius[i] + skin
+            for k in range(cell_start[key], cell_start[key + 1]):
+                t = cell_tri[k]
+                if triangle_distance(x[i, 0], x[i, 1], x[i, 2], tv, t) < reach:
+                    if write:
+                        out[start[i] + count] = t
+                    count += 1
+        if not write:
+            start[i + 1] = count
+
+
+@njit(cache=True, error_model="numpy", parallel=PARALLEL)
+def _carry(pid, n, start, tri, hist, old_start, old_tri, old_hist, row_of):
+    """Each new entry (particle, triangle) takes the history of the same entry of the old list, found by the
+    particle's id."""
+    width = hist.shape[1]
+    for i in prange(n):
+        p = pid[i]
+        r = row_of[p] if p < row_of.shape[0] else -1
+        if r < 0:
+            continue
+        for k in range(start[i], start[i + 1]):
+            for q in range(old_start[r], old_start[r + 1]):
+                if old_tri[q] == tri[k]:
+                    for h in range(width):
+                        hist[k, h] = old_hist[q, h]
+                    break
+
+
+@njit(cache=True, error_model="numpy")
+def mesh_rebuild(s, n, old, tv, skin, travel):
+    """The contact list of the first n particles of state s against the triangles tv (their current corners),
+    keeping the history of every (particle id, triangle) entry that stays; travel[0] (how far the meshes may
+    have moved since the last rebuild, m) starts again from 0."""
+    travel[0] = 0.0
+    x = s.x
+    radius = s.radius
+    pid = s.pid
+    start = np.zeros(n + 1, dtype=np.int64)
+    width = old.hist.shape[1]
+    if n == 0 or tv.shape[0] == 0:
+        return MeshList(start, np.zeros(0, dtype=np.int32), np.zeros((0, width)), np.zeros(0, dtype=np.uint8),
+                        pid[:n].copy())
+    rmax = 0.0
+    for i in range(n):
+        rmax = max(rmax, radius[i])
+    origin, cell, nc, cell_start, cell_tri = _triangle_grid(tv, rmax + skin, n)
+    tri = np.zeros(0, dtype=np.int32)
+    _scan(x, radius, n, tv, skin, origin, cell, nc, cell_start, cell_tri, start, tri, False)
+    for i in range(n):
+        start[i + 1] += start[i]
+    tri = np.empty(start[n], dtype=np.int32)
+    _scan(x, radius, n, tv, skin, origin, cell, nc, cell_start, cell_tri, start, tri, True)
+    hist = np.zeros((start[n], width))
+    if width > 0 and old.tri.shape[0] > 0:
+        top = 0
+        for r in range(old.owner.shape[0]):
+            top = max(top, old.owner[r])
+        row_of = np.full(top + 1, -1, dtype=np.int64)
+        for r in range(old.owner.shape[0]):
+            if old.owner[r] >= 0:
+                row_of[old.owner[r]] = r
+        _carry(pid, n, start, tri, hist, old.start, old.tri, old.hist, row_of)
+    return MeshList(start, tri, hist, np.zeros(start[n], dtype=np.uint8), pid[:n].copy())
+
+
+@njit(cache=True, error_model="numpy")
+def overlap_ratios(x, radius, n, tv):
+    """Largest overlap / radius of each particle with any triangle (brute force; start of a run only)."""
+    out = np.zeros(n)
+    for i in range(n):
+        worst = -np.inf
+        for t in range(tv.shape[0]):
+            worst = max(worst, (radius[i] - triangle_distance(x[i, 0], x[i, 1], x[i, 2], tv, t)) / radius[i])
+        out[i] = worst
+    return out
