@@ -33,13 +33,30 @@ def angles(record: dict) -> tuple[float, float]:
     return float(words[2]), float(words[3])
 
 
+def post_script_env(base: Path) -> dict:
+    """The environment of the harness runs, with the project importable by every process the harness starts.
+
+    The post scripts (angle.py) import harness.adapters and run in the workspace, outside the project, with the
+    build's environment (the dem build sets PYTHONPATH to its exported engine, replacing ours), so they find
+    the harness only as an installed package. A .pth file in a user site folder of our own (PYTHONUSERBASE,
+    which no build environment sets) installs the project for them as `pip install -e .` would.
+    """
+    site = base / "lib" / f"python{sys.version_info.major}.{sys.version_info.minor}" / "site-packages"
+    site.mkdir(parents=True, exist_ok=True)
+    (site / "dem_harness_project.pth").write_text(str(PROJECT) + "\n")
+    env = {**os.environ, "PYTHONUSERBASE": str(base)}
+    env.pop("PYTHONNOUSERSITE", None)
+    return env
+
+
 @pytest.fixture(scope="module")
 def drum(tmp_path_factory):
     home = tmp_path_factory.mktemp("home")
-    harness(home, "run", "liggghts-scenes", "dem-scenes", "-k", "testcases/scenes/drum/*", "-j", "1")
+    env = post_script_env(tmp_path_factory.mktemp("userbase"))
+    harness(home, "run", "liggghts-scenes", "dem-scenes", "-k", "testcases/scenes/drum/*", "-j", "1", env=env)
     junit = home / "check.xml"
     check = harness(home, "check", "dem-scenes", "-k", "testcases/scenes/drum/*", "--junit", str(junit),
-                    "--json", check=False)
+                    "--json", check=False, env=env)
     return records(home, "dem-scenes")[NAME], records(home, "liggghts-scenes")[NAME], check, junit
 
 
