@@ -86,10 +86,11 @@ def read_stl(path: str) -> np.ndarray:
     from vtk.util.numpy_support import vtk_to_numpy
 
     points = vtk_to_numpy(data.GetPoints().GetData()).astype(np.float64)
-    cells = vtk_to_numpy(data.GetPolys().GetData())
-    if len(cells) % 4 or np.any(cells[::4] != 3):
+    polys = data.GetPolys()
+    offsets = vtk_to_numpy(polys.GetOffsetsArray())
+    if np.any(np.diff(offsets) != 3):
         raise MeshError(f"file '{path}' has faces that are not triangles")
-    triangles = points[cells.reshape(-1, 4)[:, 1:]]
+    triangles = points[vtk_to_numpy(polys.GetConnectivityArray()).reshape(-1, 3)]
     if not np.all(np.isfinite(triangles)):
         raise MeshError(f"file '{path}' has vertices that are not finite numbers")
     return np.ascontiguousarray(triangles)
@@ -429,11 +430,9 @@ def _carry(pid, n, start, tri, hist, old_start, old_tri, old_hist, row_of):
 
 
 @njit(cache=True, error_model="numpy")
-def mesh_rebuild(s, n, old, tv, skin, travel):
+def mesh_rebuild(s, n, old, tv, skin):
     """The contact list of the first n particles of state s against the triangles tv (their current corners),
-    keeping the history of every (particle id, triangle) entry that stays; travel[0] (how far the meshes may
-    have moved since the last rebuild, m) starts again from 0."""
-    travel[0] = 0.0
+    keeping the history of every (particle id, triangle) entry that stays."""
     x = s.x
     radius = s.radius
     pid = s.pid

@@ -48,7 +48,7 @@ def wall_arrays(sim) -> dict:
     meshes = [w["name"] for w in sim.walls if w["shape"] == "mesh"]
     triangles = [sim.mesh_triangles[name] for name in meshes]
     return dict(plane_point=sim.plane_point, wall_force=sim.wall_force, wall_torque=sim.wall_torque,
-                mesh_angle=sim.mesh_angle, mesh_shift=sim.mesh_shift,
+                mesh_angle=sim.mesh_angle, mesh_shift=sim.mesh_shift, mesh_travel=sim.mesh_travel,
                 mesh_counts=np.array([len(t) for t in triangles], dtype=np.int64),
                 mesh_triangles=np.concatenate(triangles) if triangles else np.zeros((0, 3, 3)),
                 **{f"mesh_{key}": getattr(sim.mesh_nbr, key) for key in ("start", "tri", "hist", "owner")})
@@ -61,6 +61,7 @@ def _restore_walls(sim, data: dict, walls: list):
     sim.wall_torque = data["wall_torque"].copy()
     sim.mesh_angle = data["mesh_angle"].copy()
     sim.mesh_shift = data["mesh_shift"].copy()
+    sim.mesh_travel = data["mesh_travel"].copy()
     bounds = np.concatenate([[0], np.cumsum(data["mesh_counts"])])
     names = [w["name"] for w in walls if w["shape"] == "mesh"]
     sim.mesh_triangles = {name: data["mesh_triangles"][bounds[k]:bounds[k + 1]].copy() for k, name in enumerate(names)}
@@ -145,7 +146,7 @@ _RESTART_SHAPES = {
     "skin": ("f", ()), "lo": ("f", (3,)), "hi": ("f", (3,)), "periodic": ("b", (3,)), "next_id": ("i", ()),
     "dirty": ("b", ()), "walls": ("U", ()), "plane_point": ("f", (None, 3)), "wall_force": ("f", (None, 3)),
     "wall_torque": ("f", (None, 3)), "mesh_angle": ("f", (None,)), "mesh_shift": ("f", (None, 3)),
-    "mesh_counts": ("i", (None,)), "mesh_triangles": ("f", (None, 3, 3)), "mesh_start": ("i", (None,)),
+    "mesh_travel": ("f", (1,)), "mesh_counts": ("i", (None,)), "mesh_triangles": ("f", (None, 3, 3)), "mesh_start": ("i", (None,)),
     "mesh_tri": ("i", (None,)), "mesh_hist": ("f", (None, None)), "mesh_owner": ("i", (None,)),
 }
 

@@ -130,7 +130,7 @@ def run(sim, fields: Fields):
     if combo.meshes:
         # the mesh contact list of the particles and mesh placement now (walls or particles may have changed
         # since the last run; the list only says which triangles are near, so building it anew changes no force)
-        sim.mesh_nbr = mesh_rebuild(sim.state, sim.n, sim.mesh_nbr, walls.tri_v, sim.skin, walls.travel)
+        sim.mesh_nbr = mesh_rebuild(sim.state, sim.n, sim.mesh_nbr, walls.tri_v, sim.skin)
     # the overlap check between chunks is compiled too: not inside the timed loop
     _, n_large, worst = quantities.overlaps(sim)
     sim.timing["compile"] += time.perf_counter() - t0  # first call of a kernel compiles or loads it

@@ -44,6 +44,7 @@ class Simulation:
         self.mesh_triangles: dict[str, np.ndarray] = {}  # mesh wall name -> placed triangles (m, 3, 3), m
         self.mesh_angle = np.zeros(0)  # rad, each mesh's rotation so far
         self.mesh_shift = np.zeros((0, 3))  # m, each mesh's translation so far
+        self.mesh_travel = np.zeros(1)  # m, how far meshes may have moved since the last neighbor rebuild
         self.wall_force = np.zeros((0, 3))  # N, on each wall at the last step
         self.wall_torque = np.zeros((0, 3))  # N m, on each wall about the origin at the last step
         self.state = particle_state.empty()

@@ -141,7 +141,7 @@ def wall_set(sim) -> WallSet:
         mesh_vel=mesh_vel, mesh_point0=mesh_point0, mesh_axis=mesh_axis, mesh_omega=mesh_omega,
         mesh_angle=sim.mesh_angle, mesh_shift=sim.mesh_shift, mesh_speed=speed,
         mesh_wall0=np.array([len(planes) + len(cylinders)], dtype=np.int64),
-        travel=np.zeros(1), force=sim.wall_force, torque=sim.wall_torque)
+        travel=sim.mesh_travel, force=sim.wall_force, torque=sim.wall_torque)
 
 
 def features(walls: list[dict]) -> dict:
