@@ -22,7 +22,7 @@ from harness.adapters import get_adapter
 from harness.adapters.base import UserError
 from harness import runrecord
 from harness.runrecord import RunRecord
-from harness.workspace import Workspace
+from harness.workspace import PROJECT_ROOT, Workspace
 
 RECORD_FILE = runrecord.RECORD_FILE
 STDOUT, STDERR, POST_LOG = "stdout.txt", "stderr.txt", "post_scripts.log"
@@ -185,6 +185,9 @@ def _run_post_scripts(spec: dict, folder: Path, record: dict) -> bool:
     """
     env = dict(os.environ)
     env.update(spec.get("environment") or {})
+    # post scripts may use the harness' own readers (harness.postprocess ...) whatever the build's environment
+    # puts on PYTHONPATH (the bundled engine's build sets it to its exported source)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (env.get("PYTHONPATH"), str(PROJECT_ROOT)) if p)
     timeout = float(spec.get("timeout") or 600)
     with open(folder / POST_LOG, "ab") as log:
         for script in spec["config"].get("post_scripts", []):
