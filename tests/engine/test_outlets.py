@@ -13,6 +13,7 @@ from conftest import domain, gravity, interaction, material, model, printer, rea
 from engine import particle_set
 from engine import state as particle_state
 from engine.neighbor import NeighborList, reverse_index
+from engine.mesh import MeshList
 from test_insertion_stream import COLLISION, TRACK, region
 
 RHO = 2500.0
@@ -89,7 +90,7 @@ def test_an_outlet_with_an_unknown_region_is_bad_input(engine_run):
 # ---------------------------------------------------------------- particle_set on a neighbor list directly
 
 class _Scene:
-    """What particle_set reads of a simulation: state, neighbor list, dirty."""
+    """What particle_set reads of a simulation: state, neighbor list, mesh contact list, dirty."""
 
     def __init__(self, n, pairs, width, rng):
         self.state = particle_state.append(
@@ -106,6 +107,12 @@ class _Scene:
         reaction = np.empty((len(j), 3))
         reaction[rslot] = rng.random((len(j), 3))
         self.nbr = NeighborList(start, j, hist, rstart, rslot, reaction)
+        # particle-triangle contacts (engine/mesh.py): 0-3 triangles per particle, each with its history
+        counts = rng.integers(0, 4, n)
+        mesh_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        self.mesh_nbr = MeshList(mesh_start, rng.integers(0, 50, mesh_start[-1]).astype(np.int32),
+                                 rng.random((mesh_start[-1], width)), np.zeros(mesh_start[-1], dtype=np.uint8),
+                                 self.state.pid.copy())
         self.dirty = False
 
     @property
@@ -121,6 +128,16 @@ def _pairs_by_id(scene):
         for k in range(scene.nbr.start[i], scene.nbr.start[i + 1]):
             out[(pid[i], pid[scene.nbr.j[k]])] = (tuple(scene.nbr.hist[k]), tuple(scene.nbr.reaction[scene.nbr.rslot[k]]))
     return out
+
+
+def _mesh_rows_by_id(scene):
+    """{particle id: (triangles, history rows)} of the particle-triangle list."""
+    m = scene.mesh_nbr
+    assert len(m.start) == scene.n + 1 and m.start[-1] == len(m.tri) == len(m.hist)
+    assert np.array_equal(m.owner, scene.state.pid[:len(m.owner)])
+    return {int(scene.state.pid[i]): (tuple(m.tri[m.start[i]:m.start[i + 1]]),
+                                      tuple(map(tuple, m.hist[m.start[i]:m.start[i + 1]])))
+            for i in range(scene.n)}
 
 
 def _check_list(scene):
@@ -141,6 +158,7 @@ def test_remove_keeps_the_pairs_of_survivors_with_their_history(seed):
     pairs = {(a, b) for a, b in rng.integers(0, n, (300, 2)) if a < b}
     scene = _Scene(n, pairs, 3, rng)
     before = _pairs_by_id(scene)
+    mesh_before = _mesh_rows_by_id(scene)
     keep = rng.random(n) < 0.7
     kept_ids = scene.state.pid[keep]
     x_build = scene.state.x_build[keep].copy()
@@ -150,6 +168,7 @@ def test_remove_keeps_the_pairs_of_survivors_with_their_history(seed):
     assert np.array_equal(scene.state.x_build, x_build)  # no rebuild forced
     expected = {p: v for p, v in before.items() if p[0] in set(kept_ids) and p[1] in set(kept_ids)}
     assert _pairs_by_id(scene) == expected
+    assert _mesh_rows_by_id(scene) == {p: rows for p, rows in mesh_before.items() if p in set(kept_ids)}
 
 
 def test_insert_appends_particles_without_pairs_that_force_a_rebuild():
@@ -159,6 +178,7 @@ def test_insert_appends_particles_without_pairs_that_force_a_rebuild():
     particle_set.insert(scene, x=rng.random((4, 3)), radius=np.full(4, 0.01), pid=np.arange(21, 25))
     _check_list(scene)
     assert scene.n == 24 and _pairs_by_id(scene) == before
+    assert all(rows == ((), ()) for p, rows in _mesh_rows_by_id(scene).items() if p > 20)
     far = scene.state.x_build[20:]
     assert np.all(far == particle_set.FAR)
     # the drift pass' criterion (kernels.py DRIFT): moved more than skin/2 for any skin, and finite
