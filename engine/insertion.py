@@ -10,7 +10,8 @@ already supplies the next interval (LIGGGHTS inserts at the first step of the ru
 
 Radii come from a distribution (`Distribution`) drawn from numpy's PCG64 seeded with (seed, k, 1), positions
 from `engine.scene.random_packing` seeded with (seed, k, 2) in the modifier's region, never overlapping a
-particle already there: the same seed gives the same particles, on any thread count, and a restart that
+particle already there nor a wall (a place that would overlap a wall - a region cutting into a hopper's mesh -
+is left out): the same seed gives the same particles, on any thread count, and a restart that
 carries the counters (`state`) continues with insertion k + 1 as the long run does. What does not fit is
 carried over to the next insertion (one warning per modifier). In mass mode the radii are drawn one after the
 other while the next particle still fits under the target, so the inserted mass trails the target by less
@@ -30,6 +31,7 @@ import numpy as np
 
 from . import particle_set, regions
 from .scene import random_packing
+from .walls import overlap_ratios
 from .script import Fields
 
 #: tolerance on the particle count target rate x time (in particles): time accumulated in steps of every x dt
@@ -237,17 +239,22 @@ class Inserter:
         radii = self._radii(np.random.Generator(np.random.PCG64([self.seed, k, 1])))
         if len(radii) == 0:
             return 0
+        wanted = len(radii)
         points = random_packing(self.region, radii, [self.seed, k, 2], sim.state.x, sim.state.radius,
                                 self.max_attempts)
+        radii = radii[:len(points)]
+        if sim.walls and len(points):  # nor overlapping a wall (a region cutting into a hopper's mesh)
+            clear = ~np.any(overlap_ratios(sim, points, radii) > 0.0, axis=0)
+            points, radii = points[clear], radii[clear]
         placed = len(points)
-        if placed < len(radii) and not self.warned:
+        if placed < wanted and not self.warned:
             self.warned = True
-            sim.log.warning(f"step {step}: insert modifier '{self.name}' placed only {placed} of {len(radii)} "
-                            f"particles without overlap in its region ({self.max_attempts} attempts each); the "
-                            "rest is carried over to its next insertions (warned once)")
+            sim.log.warning(f"step {step}: insert modifier '{self.name}' placed only {placed} of {wanted} "
+                            f"particles without overlap (with particles or walls) in its region "
+                            f"({self.max_attempts} attempts each); the rest is carried over to its next insertions "
+                            "(warned once)")
         if placed == 0:
             return 0
-        radii = radii[:placed]
         mass = sphere_mass(self.density, radii)
         gravity = sim.gravity_vector()
         particle_set.insert(

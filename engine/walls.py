@@ -182,14 +182,16 @@ def surface_speeds(sim) -> list:
     return speeds
 
 
-def overlap_ratios(sim) -> np.ndarray:
-    """(walls, particles) overlap / radius, > 0 where a particle overlaps a wall.
+def overlap_ratios(sim, x=None, radius=None) -> np.ndarray:
+    """(walls, particles) overlap / radius, > 0 where a particle overlaps a wall (sim's particles, or spheres at
+    x (m, n x 3) with radius (m, n)).
 
     Plane: r - |(x - p).n| (two-sided; outside its bounds: no contact); cylinder: r - (R - rho) inside,
     r - (rho - R) outside, rho the distance from its axis (outside its extent: no contact); mesh: r - the
     distance to its nearest triangle (physics.md, walls; engine/mesh.py).
     """
-    x, radius = sim.state.x, sim.state.radius
+    if x is None:
+        x, radius = sim.state.x, sim.state.radius
     gaps = []
     planes, cylinders, mesh_walls = (of_shape(sim.walls, s) for s in SHAPES)
     for w, p in zip(planes, sim.plane_point):

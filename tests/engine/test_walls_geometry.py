@@ -431,3 +431,29 @@ def test_a_rotating_mesh_drum_gives_the_same_bytes_on_two_threads_and_after_a_re
     late = one["step"] >= 3000
     for name in ("x[5]", "z[5]", "vx[30]", "omegay[30]"):
         assert np.array_equal(continued[name], one[name][late]), name
+
+
+def test_insertion_never_places_a_sphere_into_a_wall(engine_run):
+    """An insertion region that a tilted plane and a mesh cut through: no inserted sphere overlaps either."""
+    tris = grid(-0.05, 0.05, -0.05, 0.05, 4, z=0.02)
+    write_stl(engine_run.folder / "shelf.stl", tris)
+    scene = [domain((-0.1, -0.1, -0.1), (0.1, 0.1, 0.1)), material(y=5e6), interaction(e=0.5),
+             model("hertz", "history"), mesh_wall("shelf", "shelf.stl"),
+             wall("slope", "plane", point=[0, 0, 0], normal=[1, 0, 1])] + [
+        {"command": "create", "object": "modifier", "name": "feed", "kind": "insert", "every": 10, "type": 1,
+         "rate": 2e7, "total": 400, "radius": 0.003, "seed": 3,
+         "region": {"shape": "box", "lo": [-0.05, -0.05, 0.0], "hi": [0.05, 0.05, 0.04]}},
+        {"command": "fix", "name": "feed"}, timestep(1e-6),
+        {"command": "create", "object": "modifier", "name": "dump", "kind": "vtk", "every": 10},
+        {"command": "fix", "name": "dump"}, run(10)]
+    code, folder = engine_run(scene)
+    assert code == 0, (folder / "log.dem").read_text()[-800:]
+    import vtk
+    from vtk.util.numpy_support import vtk_to_numpy
+    reader = vtk.vtkXMLPolyDataReader()
+    reader.SetFileName(str(folder / "post" / "particles_0.vtp"))
+    reader.Update()
+    x = vtk_to_numpy(reader.GetOutput().GetPoints().GetData())
+    assert len(x) > 50
+    assert np.all(np.abs(x[:, 2] - 0.02) >= 0.003)  # clear of the shelf
+    assert np.all(np.abs(x[:, 0] + x[:, 2]) / math.sqrt(2) >= 0.003)  # clear of the slope
