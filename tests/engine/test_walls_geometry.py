@@ -51,6 +51,17 @@ def grid(x0, x1, y0, y1, cells, z=0.0):
     return out
 
 
+def drum(radius, half_length, facets):
+    """The mantle of a drum along y (radius, y in [-half_length, half_length]) as facets x 2 triangles."""
+    th = np.linspace(0, 2 * np.pi, facets + 1)
+    ring = [(radius * math.cos(a), radius * math.sin(a)) for a in th]
+    tris = []
+    for (x0, z0), (x1, z1) in zip(ring[:-1], ring[1:]):
+        p = [(x0, -half_length, z0), (x1, -half_length, z1), (x1, half_length, z1), (x0, half_length, z0)]
+        tris += [[p[0], p[1], p[2]], [p[0], p[2], p[3]]]
+    return tris
+
+
 def mesh_wall(name, file, **extra):
     return {"command": "create", "object": "wall", "name": name, "shape": "mesh", "file": file, "type": 1, **extra}
 
@@ -336,14 +347,8 @@ def test_a_cylinder_along_x_is_the_z_cylinder_with_the_axes_renamed(engine_run):
 def test_a_turning_cylinder_drags_the_bed_like_a_turning_faceted_mesh(engine_run):
     """A drum along y turning at 3 rad/s: the analytic cylinder and an STL drum of 360 facets rotating as a
     mesh lift the bed alike (the bed's centre of mass moves against the turn: -x for +omega about +y)."""
-    R, L, N = 0.05, 0.0125, 360
-    th = np.linspace(0, 2 * np.pi, N + 1)
-    tris = []
-    for k in range(N):
-        p = [(R * math.cos(th[k]), -L, R * math.sin(th[k])), (R * math.cos(th[k + 1]), -L, R * math.sin(th[k + 1])),
-             (R * math.cos(th[k + 1]), L, R * math.sin(th[k + 1])), (R * math.cos(th[k]), L, R * math.sin(th[k]))]
-        tris += [[p[0], p[1], p[2]], [p[0], p[2], p[3]]]
-    write_stl(engine_run.folder / "drum.stl", tris)
+    R, L = 0.05, 0.0125
+    write_stl(engine_run.folder / "drum.stl", drum(R, L, 360))
 
     def scene(drum):
         return [domain((-0.06, -0.02, -0.06), (0.06, 0.02, 0.06)), material(y=5e6),
@@ -389,15 +394,9 @@ def test_mesh_contact_history_is_sparse():
 
 def _drum_program(folder, steps, restart_at=None, threads=1):
     """The rotating mesh drum as a program (a restart written at restart_at and a continuation read from it)."""
-    R, L, N = 0.04, 0.01, 24
-    th = np.linspace(0, 2 * np.pi, N + 1)
-    tris = []
-    for k in range(N):
-        p = [(R * math.cos(th[k]), -L, R * math.sin(th[k])), (R * math.cos(th[k + 1]), -L, R * math.sin(th[k + 1])),
-             (R * math.cos(th[k + 1]), L, R * math.sin(th[k + 1])), (R * math.cos(th[k]), L, R * math.sin(th[k]))]
-        tris += [[p[0], p[1], p[2]], [p[0], p[2], p[3]]]
+    L = 0.01
     folder.mkdir(parents=True, exist_ok=True)
-    write_stl(folder / "drum.stl", tris)
+    write_stl(folder / "drum.stl", drum(0.04, L, 24))
     head = [domain((-0.05, -0.02, -0.05), (0.05, 0.02, 0.05)), material(y=5e6), interaction(e=0.5, mu=0.5),
             model("hertz", "history"),
             mesh_wall("drum", "drum.stl", rotation={"axis": "y", "angular_velocity": 4.0}),
