@@ -15,7 +15,7 @@ import shutil
 import numpy as np
 import pytest
 
-from .conftest import REPO, read_csv
+from conftest import REPO, read_csv
 
 CASE = REPO / "testcases" / "scenes" / "stl_box"
 HALF_WIDTH = 0.03125      # m, A: the box is x, y in [-A, A], z in [0, 2 A]
