@@ -388,15 +388,20 @@ for k in range(mesh_start[i], mesh_start[i + 1]):
         eny = sign * ny + 0.0
         enz = sign * nz + 0.0
     else:
-        if not edge_or_corner_counts(xi0, xi1, xi2, cx, cy, cz, region, t, tri_v, tri_vid, fan_start, fan_tri,
-                                     1e-20 * ri * ri):
-            mesh_touch[k] = 0
-            continue
         nx = tri_n[t, 0]
         ny = tri_n[t, 1]
         nz = tri_n[t, 2]
         sep = (xi0 - tri_v[t, 0, 0]) * nx + (xi1 - tri_v[t, 0, 1]) * ny + (xi2 - tri_v[t, 0, 2]) * nz
-        if dist - abs(sep) <= 1e-12 * dist:
+        over = dist - abs(sep) <= 1e-12 * dist
+        if not over and tri_flat[t, region - 1] != 0:
+            # inside a flat part: a neighbouring face is nearer (engine/mesh.py flat_parts)
+            mesh_touch[k] = 0
+            continue
+        if not edge_or_corner_counts(xi0, xi1, xi2, cx, cy, cz, region, t, tri_v, tri_vid, fan_start, fan_tri,
+                                     1e-20 * ri * ri):
+            mesh_touch[k] = 0
+            continue
+        if over:
             # the centre is right over the face's boundary (a sphere rolling along the edge between two
             # triangles of a flat face): the face's normal and distance, as on a plane, not the rounded c
             dist = abs(sep)

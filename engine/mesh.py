@@ -137,6 +137,33 @@ def topology(triangles: np.ndarray, first: int = 0):
     return vid, fan_start, fan_tri
 
 
+def flat_parts(vid: np.ndarray, unit_normals: np.ndarray) -> np.ndarray:
+    """(m, 6) uint8: for each triangle's edges (0-1, 1-2, 2-0) and corners (0, 1, 2), whether it lies inside a
+    flat part of the mesh - an edge shared by exactly two triangles of the same plane, a corner all of whose
+    edges are such edges. There an edge or corner contact can only count when the sphere's centre is right
+    over it (otherwise a neighbouring face is nearer), a test the kernel makes without visiting the
+    neighbours."""
+    m = len(vid)
+    users: dict = {}
+    for t in range(m):
+        for e in range(3):
+            a, b = int(vid[t, e]), int(vid[t, (e + 1) % 3])
+            users.setdefault((min(a, b), max(a, b)), []).append((t, e))
+    flat = np.zeros((m, 6), dtype=np.uint8)
+    vertex_flat: dict = {}
+    for key, sharing in users.items():
+        coplanar = len(sharing) == 2 and abs(float(np.dot(unit_normals[sharing[0][0]],
+                                                          unit_normals[sharing[1][0]]))) >= 1.0 - 1e-12
+        for t, e in sharing:
+            flat[t, e] = coplanar
+        for v in key:
+            vertex_flat[v] = vertex_flat.get(v, True) and coplanar
+    for t in range(m):
+        for c in range(3):
+            flat[t, 3 + c] = vertex_flat[int(vid[t, c])]
+    return flat
+
+
 def normals(triangles: np.ndarray) -> np.ndarray:
     """Unit normals (m, 3) by the right-hand rule on the corner order."""
     cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])

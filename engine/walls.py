@@ -29,7 +29,8 @@ SHAPES = ("plane", "cylinder", "mesh")
 #: point (m, 3; +-inf when unbounded). cylinders: point on the axis (m, 3), unit axis, radius (m), side (+1
 #: inside, -1 outside), angular velocity of the surface about the axis (rad/s), extent lo/hi along the axis
 #: (m, from the point), type. meshes: reference corners (m, 3, 3), current corners and unit normals, mesh of
-#: each triangle, vertex ids and vertex -> triangles (fan) of the topology; per mesh: type, velocity (m/s),
+#: each triangle, vertex ids, flat edges and corners (engine.mesh.flat_parts) and vertex -> triangles (fan) of
+#: the topology; per mesh: type, velocity (m/s),
 #: rotation point at the start (m), unit rotation axis, angular velocity (rad/s), angle turned (rad) and
 #: shift (m) so far, how far (m) its farthest corner moves per unit time (for the rebuild criterion), the
 #: wall index of its first mesh; travel (1): how far meshes may have moved since the last rebuild (m).
@@ -37,7 +38,7 @@ SHAPES = ("plane", "cylinder", "mesh")
 #: step of a chunk.
 WALL_FIELDS = ("plane_point", "plane_normal", "plane_vel", "plane_type", "plane_lo", "plane_hi",
                "cyl_point", "cyl_axis", "cyl_radius", "cyl_side", "cyl_omega", "cyl_lo", "cyl_hi", "cyl_type",
-               "tri_v0", "tri_v", "tri_n", "tri_mesh", "tri_vid", "fan_start", "fan_tri",
+               "tri_v0", "tri_v", "tri_n", "tri_mesh", "tri_vid", "tri_flat", "fan_start", "fan_tri",
                "mesh_type", "mesh_vel", "mesh_point0", "mesh_axis", "mesh_omega", "mesh_angle", "mesh_shift",
                "mesh_speed", "mesh_wall0", "travel", "force", "torque")
 WallSet = namedtuple("WallSet", WALL_FIELDS)
@@ -72,21 +73,25 @@ def mesh_arrays(walls: list[dict], triangles: dict) -> dict:
         else np.zeros(0, dtype=np.int64)
     if parts:
         # topology per mesh (two meshes never share a vertex, even where they touch), numbered globally
-        vids, fan_starts, fan_tris, first, vertices = [], [np.zeros(1, dtype=np.int64)], [], 0, 0
+        vids, flats, fan_starts, fan_tris, first, vertices = [], [], [np.zeros(1, dtype=np.int64)], [], 0, 0
         for p in parts:
             vid, fan_start, fan_tri = meshes.topology(p, first)
+            flats.append(meshes.flat_parts(vid, meshes.normals(p)))
             vids.append(vid + vertices)
             fan_starts.append(fan_start[1:] + fan_starts[-1][-1])
             fan_tris.append(fan_tri)
             first += len(p)
             vertices += len(fan_start) - 1
         tri_vid = np.concatenate(vids)
+        tri_flat = np.concatenate(flats)
         fan_start = np.concatenate(fan_starts)
         fan_tri = np.concatenate(fan_tris)
     else:
         tri_vid, fan_start, fan_tri = np.zeros((0, 3), dtype=np.int64), np.zeros(1, dtype=np.int64), \
             np.zeros(0, dtype=np.int64)
-    return dict(tri_v0=tri_v0, tri_mesh=tri_mesh, tri_vid=tri_vid, fan_start=fan_start, fan_tri=fan_tri)
+        tri_flat = np.zeros((0, 6), dtype=np.uint8)
+    return dict(tri_v0=tri_v0, tri_mesh=tri_mesh, tri_vid=tri_vid, tri_flat=tri_flat, fan_start=fan_start,
+                fan_tri=fan_tri)
 
 
 def rotation_of(w) -> tuple:
@@ -136,6 +141,7 @@ def wall_set(sim) -> WallSet:
         cyl_hi=np.array([(w["extent"] or [-np.inf, np.inf])[1] for w in cylinders], dtype=np.float64),
         cyl_type=np.array([w["type"] - 1 for w in cylinders], dtype=np.int64),
         tri_v0=m["tri_v0"], tri_v=tri_v, tri_n=tri_n, tri_mesh=m["tri_mesh"], tri_vid=m["tri_vid"],
+        tri_flat=m["tri_flat"],
         fan_start=m["fan_start"], fan_tri=m["fan_tri"],
         mesh_type=np.array([w["type"] - 1 for w in mesh_walls], dtype=np.int64),
         mesh_vel=mesh_vel, mesh_point0=mesh_point0, mesh_axis=mesh_axis, mesh_omega=mesh_omega,
