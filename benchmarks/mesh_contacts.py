@@ -13,6 +13,7 @@ that the extra cost per wall contact can be read too: (t_mesh - t_plane) / (wall
 
     python benchmarks/mesh_contacts.py                         # N = 5000, 20000 + 2000 steps, 3 repetitions
     python benchmarks/mesh_contacts.py --sizes 2000 10000 --repeat 5 --threads 2
+    python benchmarks/mesh_contacts.py --subdivide 8    # each face 8 x 8 quads: 640 triangles, the same box
 """
 from __future__ import annotations
 
@@ -41,14 +42,25 @@ def box_size(n: int) -> tuple[float, float]:
     return half_width, n * 4 / 3 * math.pi * RADIUS ** 3 / (0.28 * usable) + 2 * RADIUS
 
 
-def box_stl(path: Path, half_width: float, height: float) -> None:
-    """ASCII STL of the open box: floor and four sides, two triangles each."""
+def box_stl(path: Path, half_width: float, height: float, subdivide: int = 1) -> int:
+    """ASCII STL of the open box: floor and four sides, each a grid of K x K quads of two triangles (K =
+    subdivide; 1: two triangles per face). Returns the number of triangles."""
     a, h = half_width, height
-    quads = [[(-a, -a, 0), (a, -a, 0), (a, a, 0), (-a, a, 0)],       # floor
+    faces = [[(-a, -a, 0), (a, -a, 0), (a, a, 0), (-a, a, 0)],       # floor
              [(-a, -a, 0), (-a, a, 0), (-a, a, h), (-a, -a, h)],     # x = -a
              [(a, -a, 0), (a, -a, h), (a, a, h), (a, a, 0)],         # x = +a
              [(-a, -a, 0), (-a, -a, h), (a, -a, h), (a, -a, 0)],     # y = -a
              [(-a, a, 0), (a, a, 0), (a, a, h), (-a, a, h)]]         # y = +a
+
+    def lerp(p, q, t):
+        return tuple(pc + (qc - pc) * t for pc, qc in zip(p, q))
+
+    quads = []
+    k = subdivide
+    for c0, c1, c2, c3 in faces:  # bilinear grid on the face; K a power of two keeps every vertex exact
+        point = lambda i, j: lerp(lerp(c0, c1, i / k), lerp(c3, c2, i / k), j / k)
+        quads += [(point(i, j), point(i + 1, j), point(i + 1, j + 1), point(i, j + 1))
+                  for i in range(k) for j in range(k)]
     lines = ["solid box"]
     for p0, p1, p2, p3 in quads:
         for tri in ((p0, p1, p2), (p0, p2, p3)):
@@ -57,6 +69,7 @@ def box_stl(path: Path, half_width: float, height: float) -> None:
             lines += ["    endloop", "  endfacet"]
     lines.append("endsolid box")
     path.write_text("\n".join(lines) + "\n")
+    return 2 * len(quads)
 
 
 def scene(walls: str, n: int, settle: int, measure: int) -> list[dict]:
@@ -110,12 +123,12 @@ def wall_contacts(folder: Path, half_width: float) -> int:
     return int(sum(int((g < radius).sum()) for g in gaps))
 
 
-def run(walls: str, n: int, settle: int, measure: int, threads: int) -> tuple[float, float, int]:
+def run(walls: str, n: int, settle: int, measure: int, threads: int, subdivide: int = 1) -> tuple[float, float, int]:
     """(pouring loop time, resting-bed loop time) in s and the resting bed's wall contacts, of one engine run."""
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         half_width, height = box_size(n)
-        box_stl(folder / "box.stl", half_width, height + 0.01)
+        box_stl(folder / "box.stl", half_width, height + 0.01, subdivide)
         (folder / "scene.json").write_text(json.dumps(scene(walls, n, settle, measure)))
         cmd = [sys.executable, "-m", "engine", "-in", "scene.json", "-log", "log.dem", "-threads", str(threads)]
         env = dict(os.environ, PYTHONPATH=str(REPO))
@@ -133,6 +146,8 @@ def main():
     parser.add_argument("--measure", type=int, default=2000)
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--subdivide", type=int, default=1,
+                        help="K: each face of the mesh a K x K grid of quads (2 K^2 triangles; default 1)")
     args = parser.parse_args()
     configs = ["plane", "mesh"]
     for walls in configs:  # compile (or load) both kernels once, outside the figures
@@ -142,14 +157,15 @@ def main():
         contacts = {}
         for rep in range(args.repeat):
             for walls in (configs if rep % 2 == 0 else configs[::-1]):
-                settle, measure, contacts[walls] = run(walls, n, args.settle, args.measure, args.threads)
+                settle, measure, contacts[walls] = run(walls, n, args.settle, args.measure, args.threads,
+                                                       args.subdivide)
                 times[walls].append((settle, measure))
                 print(f"N={n} rep {rep + 1}: {walls:<5} pouring {settle:.2f} s, resting bed {measure:.3f} s, "
                       f"{contacts[walls]} wall contacts", flush=True)
         median = {c: (statistics.median(t[0] for t in times[c]), statistics.median(t[1] for t in times[c]))
                   for c in configs}
-        print(f"\nN = {n}, {args.threads} thread(s): {args.settle} steps pouring + {args.measure} steps resting bed, "
-              f"median of {args.repeat} (loop times)")
+        print(f"\nN = {n}, {args.threads} thread(s), mesh of {10 * args.subdivide ** 2} triangles: {args.settle} steps "
+              f"pouring + {args.measure} steps resting bed, median of {args.repeat} (loop times)")
         print(f"{'walls':<6} {'pouring ns/particle-step':>25} {'resting ns/particle-step':>25} {'wall contacts':>14}")
         for c in configs:
             print(f"{c:<6} {1e9 * median[c][0] / (n * args.settle):>25.1f} "
