@@ -1,14 +1,15 @@
 """Kernel builder: one compiled step loop per combination of named submodels.
 
-A scene names its contact submodels (normal, tangential, cohesion, rolling), whether it has plane or
-cylinder walls, gravity and periodic axes: a `Combination`. The builder fills the templates below - the
+A scene names its contact submodels (normal, tangential, cohesion, rolling), its kinds of walls (planes,
+bounded planes, cylinders with a turning surface or an extent, meshes that stand, translate or rotate: the
+fields of `engine.walls.features`), gravity and periodic axes: a `Combination`. The builder fills the templates below - the
 neighbor loop, the wall loop and the step loop, each written once, after HOOMD-blue's
 ``PotentialPair<evaluator>`` - with exactly those pieces: the calls of the laws the scene names
 (`engine.models.LAWS`), their parameter columns and history slots. The source goes into a cache folder keyed
 by a hash of the engine's source and the combination and is compiled with ``@njit(cache=True)``, so a second
 run (another process) loads the machine code from disk. What the scene does not name is not in the source: no
 branch in the pair loop, no history array (pair history has width 0 without a history submodel), no wall pass
-without walls.
+without walls, no mesh code without a mesh, no rotation code without a rotating mesh.
 
 Templates are plain text with named slots: a line holding only ``${name}`` is replaced by the slot's lines,
 indented as the slot is; ``${name}`` inside a line by its text (`render`).

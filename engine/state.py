@@ -46,8 +46,9 @@ PARTICLE_FIELDS = (
     Field("ptype", np.int64, (), "-", "material type, 0-based"),
     Field("pid", np.int64, (), "-", "particle id, from 1, never reused"),
     Field("x_build", np.float64, (3,), "m", "position at the last neighbor rebuild"),
-    Field("wall_hist", np.float64, ("walls", "history"), "-", "contact history with each wall (e.g. shear "
-                                                              "displacement, m)"),
+    Field("wall_hist", np.float64, ("walls", "history"), "-", "contact history with each plane and cylinder "
+                                                              "(e.g. shear displacement, m; meshes keep theirs "
+                                                              "in engine.mesh.MeshList)"),
 )
 
 FIELD_NAMES = tuple(f.name for f in PARTICLE_FIELDS)
