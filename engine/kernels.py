@@ -194,8 +194,8 @@ PAIR_REACTION = {True: "reaction[q, 0] = fx\nreaction[q, 1] = fy\nreaction[q, 2]
 #: and the torque about the origin of the force on the particle at the contact point c (the wall takes the
 #: opposite). A plane or cylinder has one contact per particle; a mesh adds up its triangles' contacts.
 WALL_REACTION = """\
+${point}
 if record:
-    ${point}
     wall_part[i, w, 0] ${op} fx
     wall_part[i, w, 1] ${op} fy
     wall_part[i, w, 2] ${op} fz
@@ -369,31 +369,26 @@ MESH_CONTACTS = """\
 for k in range(mesh_start[i], mesh_start[i + 1]):
     t = mesh_tri[k]
     cx, cy, cz, region = closest_point(xi0, xi1, xi2, tri_v, t)
+    # every name below is set on every path: Numba's parallel loops treat a name that some path leaves unset
+    # as shared between threads
+    gx = xi0 - cx
+    gy = xi1 - cy
+    gz = xi2 - cz
+    nx = tri_n[t, 0]
+    ny = tri_n[t, 1]
+    nz = tri_n[t, 2]
+    sep = (xi0 - tri_v[t, 0, 0]) * nx + (xi1 - tri_v[t, 0, 1]) * ny + (xi2 - tri_v[t, 0, 2]) * nz
     if region == 0:
-        nx = tri_n[t, 0]
-        ny = tri_n[t, 1]
-        nz = tri_n[t, 2]
-        sep = (xi0 - tri_v[t, 0, 0]) * nx + (xi1 - tri_v[t, 0, 1]) * ny + (xi2 - tri_v[t, 0, 2]) * nz
         dist = abs(sep)
     else:
-        gx = xi0 - cx
-        gy = xi1 - cy
-        gz = xi2 - cz
         dist = sqrt(gx * gx + gy * gy + gz * gz)
     if dist >= ri or dist == 0.0:
         mesh_touch[k] = 0
         continue
-    if region == 0:
-        sign = 1.0 if sep >= 0.0 else -1.0
-        enx = sign * nx + 0.0
-        eny = sign * ny + 0.0
-        enz = sign * nz + 0.0
-    else:
-        nx = tri_n[t, 0]
-        ny = tri_n[t, 1]
-        nz = tri_n[t, 2]
-        sep = (xi0 - tri_v[t, 0, 0]) * nx + (xi1 - tri_v[t, 0, 1]) * ny + (xi2 - tri_v[t, 0, 2]) * nz
-        over = dist - abs(sep) <= 1e-12 * dist
+    # an edge or corner contact with the centre right over it (a sphere rolling along the edge between two
+    # triangles of a flat face) takes the face's normal and distance, as on a plane, not the rounded c
+    over = region == 0 or dist - abs(sep) <= 1e-12 * dist
+    if region != 0:
         if not over and tri_flat[t, region - 1] != 0:
             # inside a flat part: a neighbouring face is nearer (engine/mesh.py flat_parts)
             mesh_touch[k] = 0
@@ -402,18 +397,16 @@ for k in range(mesh_start[i], mesh_start[i + 1]):
                                      1e-20 * ri * ri):
             mesh_touch[k] = 0
             continue
-        if over:
-            # the centre is right over the face's boundary (a sphere rolling along the edge between two
-            # triangles of a flat face): the face's normal and distance, as on a plane, not the rounded c
-            dist = abs(sep)
-            sign = 1.0 if sep >= 0.0 else -1.0
-            enx = sign * nx + 0.0
-            eny = sign * ny + 0.0
-            enz = sign * nz + 0.0
-        else:
-            enx = gx / dist
-            eny = gy / dist
-            enz = gz / dist
+    if over:
+        dist = abs(sep)
+        sign = 1.0 if sep >= 0.0 else -1.0
+        enx = sign * nx + 0.0
+        eny = sign * ny + 0.0
+        enz = sign * nz + 0.0
+    else:
+        enx = gx / dist
+        eny = gy / dist
+        enz = gz / dist
     mesh_touch[k] = 1
     ${take_history}
     d = ri - dist
