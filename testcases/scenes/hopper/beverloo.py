@@ -23,8 +23,24 @@ the particle diameter (m). Everything is read from the run's own files, nothing 
 - W_beverloo with C = 0.58, k = 1.5; C_fit = W / (rho_b sqrt(g) (D - 1.5 d)^(5/2)), the C that makes
   Beverloo's formula (k = 1.5) give the measured rate.
 
+The same for both codes (issue 12's cross-code check): the run is the engine's when log.dem is in the folder,
+LIGGGHTS' (in.liggghts) when log.liggghts is. For LIGGGHTS the same figures come from its log: D from the
+region `orifice`, d from the particle templates and their mass fractions in particledistribution/discrete
+(the number-mean diameter), g from fix gravity, the bulk region's volume, dt from `timestep`; the thermo
+columns mall, msilo, mbulk (mass in the domain, the silo, the bulk region) give removed_mass = inserted mass -
+mall (LIGGGHTS stops on a lost atom, so what is gone went through the outlet).
+Both codes are read on the same grid, every GRID_STEPS = 500 steps (0.02 s; the engine's flow.csv has a row
+every 250 steps, LIGGGHTS' thermo one every 100), so that the fits use the same instants.
+
+discharge.csv (both codes, every 1000 steps from step 1000: the codes' common thermo steps) holds time,
+atoms, removed_count, total = atoms + removed_count, lost, removed_mass, silo_mass, max_overlap (the largest
+overlap over the smaller radius; LIGGGHTS: its thermo dmax, the largest pair overlap, over the smallest
+template radius, a bound of the same): the series the run.config's
+stability check (no particle lost but through the outlet) and the cross-code comparison read.
+
 Rows accumulate along the chain of runs (depends_on copies post/ in): the row of this run joins the rows of
-post/beverloo_rows.csv and both that file and beverloo.csv (columns D, d, W_measured, W_beverloo, C_fit,
+post/beverloo_rows.csv and that file, beverloo.csv and beverloo.txt (the same with blanks between words, for
+the harness' word-by-word comparison of text files; columns D, d, W_measured, W_beverloo, C_fit,
 rho_b, t_start, t_end, points) hold every orifice size run so far. With three sizes or more it also fits
 C and k together (W^(2/5) linear in D: slope (C rho_b sqrt g)^(2/5), intercept -slope k d) into
 beverloo_fit.txt (columns C, k, sizes).
@@ -40,6 +56,8 @@ C_BEVERLOO = 0.58
 T_START = 0.3          # s
 END_FRACTION = 0.6     # of the silo's mass at T_START
 RHO_WINDOW = 0.1       # s
+GRID_STEPS = 500       # steps between the rows the fit uses (both codes)
+DISCHARGE_STEPS = 1000  # steps between the rows of discharge.csv
 
 COMMAND = re.compile(r"^command \d+ \(([^)]*)\): (\{.*\})\s*$")
 
@@ -70,19 +88,106 @@ def line_fit(x: list, y: list) -> tuple[float, float]:
     return slope, my - slope * mx
 
 
-def measure() -> dict:
+def liggghts_log() -> tuple[list[str], list[tuple[list[str], list[list[float]]]]]:
+    """Echoed commands (variables replaced: the last echo of a line wins) and thermo blocks of log.liggghts."""
+    lines = Path("log.liggghts").read_text(errors="replace").splitlines()
+    blocks, header = [], None
+    for line in lines:
+        tokens = line.split()
+        if tokens[:1] == ["Step"]:
+            header = tokens
+            blocks.append((header, []))
+        elif header and len(tokens) == len(header):
+            try:
+                blocks[-1][1].append([float(t) for t in tokens])
+            except ValueError:
+                pass
+        elif line.startswith("Loop time"):
+            header = None
+    return lines, blocks
+
+
+def liggghts_scene() -> dict:
+    """D, d, g, the bulk region's volume, dt and the flow table (as flow.csv's columns) of a LIGGGHTS run."""
+    lines, blocks = liggghts_log()
+    commands = [l.split() for l in lines if l.strip() and not l.lstrip().startswith("#") and "${" not in l]
+    regions = {c[1]: c for c in commands if c[0] == "region" and len(c) > 2}
+    templates = {c[1]: float(c[c.index("radius") + 2]) for c in commands
+                 if c[0] == "fix" and len(c) > 3 and c[3] == "particletemplate/sphere"}
+    dist = next(c for c in commands if c[0] == "fix" and len(c) > 3 and c[3] == "particledistribution/discrete")
+    pairs = [(templates[dist[6 + 2 * i]], float(dist[7 + 2 * i])) for i in range(int(dist[5]))]
+    numbers = [fraction / r ** 3 for r, fraction in pairs]  # number fractions from mass fractions
+    diameter = 2.0 * sum(n * r for n, (r, _) in zip(numbers, pairs)) / sum(numbers)
+    gravity = next(c for c in commands if c[0] == "fix" and len(c) > 3 and c[3] == "gravity")
+    dt = float(next(c for c in commands if c[0] == "timestep")[1])
+
+    def cylinder(c):  # region ID cylinder z cx cy R lo hi
+        return {"shape": "cylinder", "radius": float(c[6]), "z": [float(c[7]), float(c[8])]}
+
+    rows = {}
+    for header, table in blocks:
+        for row in table:
+            rows.setdefault(int(row[0]), dict(zip(header, row)))
+    steps = sorted(s for s, r in rows.items() if r["Atoms"] > 0)
+    inserted = max(rows[s]["mall"] for s in steps)
+    flow = {"step": [float(s) for s in steps], "time": [s * dt for s in steps],
+            "atoms": [rows[s]["Atoms"] for s in steps],
+            "removed_mass[drain]": [inserted - rows[s]["mall"] for s in steps],
+            "mass[region=silo]": [rows[s]["msilo"] for s in steps],
+            "mass[region=bulk]": [rows[s]["mbulk"] for s in steps]}
+    inserted_count = max(flow["atoms"])
+    flow["removed_count[drain]"] = [inserted_count - a for a in flow["atoms"]]
+    flow["lost"] = [0.0] * len(steps)
+    smallest = min(r for r, _ in pairs)  # dmax / the smallest radius: a bound of overlap / smaller radius
+    flow["max_overlap"] = [rows[s].get("dmax", math.nan) / smallest for s in steps]
+    return {"D": 2.0 * cylinder(regions["orifice"])["radius"], "d": diameter, "g": float(gravity[4]),
+            "bulk_volume": region_volume(cylinder(regions["bulk"])), "flow": flow}
+
+
+def dem_scene() -> dict:
+    """The same for an engine run: the commands echoed in log.dem, flow.csv and thermo.csv."""
     commands = scene_commands(Path("log.dem").read_text(encoding="utf-8", errors="replace"))
     regions = {c["name"]: c for c in commands if c.get("object") == "region"}
     packing = next(c for c in commands if c.get("object") == "random_packing")
     gravity = next(c for c in commands if c.get("kind") == "gravity")
-    orifice = 2.0 * regions["orifice"]["radius"]
-    diameter = packing["radius_min"] + packing["radius_max"]
-    g = math.sqrt(sum(a * a for a in gravity.get("acceleration", [0, 0, -9.81])))
-    bulk_volume = region_volume(regions["bulk"])
-
     flow = read_flow("flow.csv")
-    time, removed, silo, bulk = (flow["time"], flow["removed_mass[drain]"], flow["mass[region=silo]"],
-                                 flow["mass[region=bulk]"])
+    thermo = read_flow("thermo.csv")
+    by_step = {int(s): i for i, s in enumerate(thermo["step"])}
+    flow["atoms"] = [thermo["atoms"][by_step[int(s)]] if int(s) in by_step else math.nan for s in flow["step"]]
+    for column in ("lost", "max_overlap"):
+        flow[column] = [thermo[column][by_step[int(s)]] if int(s) in by_step else math.nan for s in flow["step"]]
+    return {"D": 2.0 * regions["orifice"]["radius"], "d": packing["radius_min"] + packing["radius_max"],
+            "g": math.sqrt(sum(a * a for a in gravity.get("acceleration", [0, 0, -9.81]))),
+            "bulk_volume": region_volume(regions["bulk"]), "flow": flow}
+
+
+def write_discharge(flow: dict) -> None:
+    """discharge.csv: the rows both codes have (every DISCHARGE_STEPS steps from DISCHARGE_STEPS on)."""
+    with open("discharge.csv", "w", newline="") as out:
+        writer = csv.writer(out)
+        writer.writerow(["time", "atoms", "removed_count", "total", "lost", "removed_mass", "silo_mass",
+                         "max_overlap"])
+        for i, step in enumerate(flow["step"]):
+            if step >= DISCHARGE_STEPS and int(step) % DISCHARGE_STEPS == 0:
+                atoms, removed = flow["atoms"][i], flow["removed_count[drain]"][i]
+                writer.writerow([round(step * DT_GRID, 9), repr(atoms), repr(removed), repr(atoms + removed),
+                                 repr(flow["lost"][i]), repr(flow["removed_mass[drain]"][i]),
+                                 repr(flow["mass[region=silo]"][i]), repr(flow["max_overlap"][i])])
+
+
+DT_GRID = 4e-5  # s per step for discharge.csv's time column (set from the run in measure())
+
+
+def measure() -> dict:
+    global DT_GRID
+    scene = liggghts_scene() if Path("log.liggghts").is_file() else dem_scene()
+    orifice, diameter, g, bulk_volume = scene["D"], scene["d"], scene["g"], scene["bulk_volume"]
+    flow = scene["flow"]
+    DT_GRID = flow["time"][-1] / flow["step"][-1]
+    write_discharge(flow)
+    keep = [i for i, s in enumerate(flow["step"]) if int(s) % GRID_STEPS == 0]
+    time, removed, silo, bulk = ([flow[c][i] for i in keep] for c in
+                                 ("time", "removed_mass[drain]", "mass[region=silo]", "mass[region=bulk]"))
     start = next(i for i, t in enumerate(time) if t >= T_START - 1e-9)
     end = start
     while end + 1 < len(time) and silo[end + 1] >= END_FRACTION * silo[start]:
@@ -135,6 +240,10 @@ def main() -> None:
     Path("post").mkdir(exist_ok=True)
     write_rows(previous, rows)
     write_rows(Path("beverloo.csv"), rows)
+    with open("beverloo.txt", "w") as out:  # the same rows, words separated by blanks (the cross-code check)
+        out.write(" ".join(COLUMNS) + "\n")
+        for r in rows:
+            out.write(" ".join(f"{r[c]:.6g}" for c in COLUMNS) + "\n")
     if len(rows) >= 3:
         c, k = joint_fit(rows)
         Path("beverloo_fit.txt").write_text(f"C k sizes\n{c!r} {k!r} {len(rows)}\n")
