@@ -113,13 +113,7 @@ def wall_set(sim) -> WallSet:
     mesh_axis = np.array([r[1] for r in rotations], dtype=np.float64).reshape(-1, 3)
     mesh_omega = np.array([r[2] for r in rotations], dtype=np.float64)
     mesh_vel = np.array([w["velocity"] for w in mesh_walls], dtype=np.float64).reshape(-1, 3)
-    # speed bound of each mesh's corners: |v| + |omega| x (largest distance of a corner from the axis)
-    speed = np.zeros(len(mesh_walls))
-    for k, w in enumerate(mesh_walls):
-        corners = m["tri_v0"][m["tri_mesh"] == k].reshape(-1, 3) - mesh_point0[k]
-        radial = corners - np.outer(corners @ mesh_axis[k], mesh_axis[k])
-        reach = float(np.sqrt(np.max(np.einsum("ij,ij->i", radial, radial)))) if len(corners) else 0.0
-        speed[k] = float(np.linalg.norm(mesh_vel[k])) + abs(mesh_omega[k]) * reach
+    speed = np.array([mesh_speed(w, sim.mesh_triangles[w["name"]]) for w in mesh_walls], dtype=np.float64)
     tri_v = np.empty_like(m["tri_v0"])
     tri_n = np.empty((len(tri_v), 3))
     if len(tri_v):
@@ -169,6 +163,16 @@ def reference_points(sim, walls_set: WallSet | None = None) -> np.ndarray:
     return np.array(rows, dtype=np.float64).reshape(-1, 3)
 
 
+def mesh_speed(w: dict, triangles: np.ndarray) -> float:
+    """The fastest corner of a mesh (m/s): |v| + |omega| x (largest distance of a corner from its axis)."""
+    point, axis, omega = rotation_of(w)
+    corners = triangles.reshape(-1, 3) - np.asarray(point, dtype=np.float64)
+    axis = np.asarray(axis, dtype=np.float64)
+    radial = corners - np.outer(corners @ axis, axis)
+    reach = float(np.sqrt(np.max(np.einsum("ij,ij->i", radial, radial)))) if len(corners) else 0.0
+    return float(np.linalg.norm(w["velocity"])) + abs(omega) * reach
+
+
 def surface_speeds(sim) -> list:
     """The largest speed (m/s) of each wall's surface: a plane's velocity, omega R of a turning cylinder, a
     mesh's |v| + |omega| (farthest corner from its axis)."""
@@ -179,12 +183,7 @@ def surface_speeds(sim) -> list:
         elif w["shape"] == "cylinder":
             speeds.append(abs(w["angular_velocity"]) * w["radius"])
         else:
-            point, axis, omega = rotation_of(w)
-            corners = sim.mesh_triangles[w["name"]].reshape(-1, 3) - np.asarray(point)
-            axis = np.asarray(axis, float)
-            radial = corners - np.outer(corners @ axis, axis)
-            reach = float(np.sqrt(np.max(np.einsum("ij,ij->i", radial, radial)))) if len(corners) else 0.0
-            speeds.append(float(np.linalg.norm(w["velocity"])) + abs(omega) * reach)
+            speeds.append(mesh_speed(w, sim.mesh_triangles[w["name"]]))
     return speeds
 
 
