@@ -88,6 +88,20 @@ class Runner:
         return code, folder
 
 
+def engine_program(folder, commands, *args, env=None, name="scene.json"):
+    """Run the engine as a program on commands (written to folder/name) with the parallel loops forced on
+    however few the particles (DEM_SERIAL_BELOW=0); env adds variables (e.g. NUMBA_NUM_THREADS)."""
+    import subprocess
+    import sys
+
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / name).write_text(json.dumps(commands))
+    full_env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_NUM_THREADS", "PYTHONPATH")}
+    full_env.update(PYTHONPATH=str(REPO), DEM_SERIAL_BELOW="0", **(env or {}))
+    return subprocess.run([sys.executable, "-m", "engine", "-in", name, *args], cwd=folder, env=full_env,
+                          capture_output=True, text=True, timeout=900)
+
+
 @pytest.fixture
 def engine_run(tmp_path):
     return Runner(tmp_path)

@@ -6,16 +6,13 @@ on 1 and 2 threads, an insertion leaves the contacts already there (and their ta
 they were, and a restart continues the stream as the long run does.
 """
 import filecmp
-import json
 import math
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
-from conftest import REPO, domain, gravity, interaction, material, model, plane, printer, read_csv, run, timestep
+from conftest import domain, engine_program, gravity, interaction, material, model, plane, printer, read_csv, run, \
+    timestep
 from engine.insertion import Distribution
 from engine.script import Fields
 
@@ -315,12 +312,7 @@ STREAM = [domain((-0.02, -0.02, -0.01), (0.02, 0.02, 0.07)), material(y=5e6, nu=
 
 
 def _engine(folder, *args, env=None):
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "scene.json").write_text(json.dumps(STREAM))
-    full_env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_NUM_THREADS", "PYTHONPATH")}
-    full_env.update(PYTHONPATH=str(REPO), DEM_SERIAL_BELOW="0", **(env or {}))
-    return subprocess.run([sys.executable, "-m", "engine", "-in", "scene.json", *args], cwd=folder,
-                          env=full_env, capture_output=True, text=True, timeout=900)
+    return engine_program(folder, STREAM, *args, env=env)
 
 
 def test_insertion_and_outlet_give_the_same_bytes_on_any_thread_count(tmp_path):

@@ -8,14 +8,11 @@ with the contact history following its pairs.
 """
 import filecmp
 import json
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
-from conftest import REPO, domain, gravity, interaction, material, model, plane, run, timestep
+from conftest import domain, engine_program, gravity, interaction, material, model, plane, run, timestep
 
 #: 400 polydisperse spheres poured onto a floor in a box periodic along x and y, next to a pillar (a cylinder
 #: wall), one sphere shot out of the top (lost at a rebuild)
@@ -40,12 +37,7 @@ SCENE = [domain((-0.015, -0.015, -0.01), (0.015, 0.015, 0.08), periodic=(True, T
 
 
 def engine(folder, *args, env=None):
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "scene.json").write_text(json.dumps(SCENE))
-    full_env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_NUM_THREADS", "PYTHONPATH")}
-    full_env.update(PYTHONPATH=str(REPO), DEM_SERIAL_BELOW="0", **(env or {}))
-    return subprocess.run([sys.executable, "-m", "engine", "-in", "scene.json", *args], cwd=folder,
-                          env=full_env, capture_output=True, text=True, timeout=900)
+    return engine_program(folder, SCENE, *args, env=env)
 
 
 def test_thread_count_never_changes_the_bytes(tmp_path):

@@ -17,8 +17,8 @@ import sys
 import numpy as np
 import pytest
 
-from conftest import REPO, domain, gravity, interaction, material, model, particle, plane, printer, read_csv, run, \
-    timestep
+from conftest import REPO, domain, engine_program, gravity, interaction, material, model, particle, plane, printer, \
+    read_csv, run, timestep
 
 G = 9.81
 
@@ -412,18 +412,15 @@ def _drum_program(folder, steps, restart_at=None, threads=1):
                                                                   "file": "r.npz"}],
                    "scene.json": head + [{"command": "set", "property": "restart", "file": "r.npz"}] + out + [
                        run(steps - restart_at)]}
-    env = {"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin", "DEM_SERIAL_BELOW": "0"}
     for name, script in scripts.items():
-        (folder / name).write_text(json.dumps(script))
-        proc = subprocess.run([sys.executable, "-m", "engine", "-in", name, "-threads", str(threads)], cwd=folder,
-                              capture_output=True, text=True, env=env, timeout=900)
+        proc = engine_program(folder, script, "-threads", str(threads), name=name)
         assert proc.returncode == 0, proc.stdout[-1500:] + proc.stderr[-1500:]
     return read_csv(folder / "series.csv")
 
 
 def test_a_rotating_mesh_drum_gives_the_same_bytes_on_two_threads_and_after_a_restart(tmp_path):
     one = _drum_program(tmp_path / "one", 3000)
-    two = _drum_program(tmp_path / "two", 3000, threads=2)
+    _drum_program(tmp_path / "two", 3000, threads=2)
     assert (tmp_path / "one" / "series.csv").read_bytes() == (tmp_path / "two" / "series.csv").read_bytes()
     assert np.ptp(one["omegay[30]"]) > 0  # the drum turned the bed
     continued = _drum_program(tmp_path / "continued", 3000, restart_at=1500)
