@@ -24,13 +24,27 @@ def _when(value):
     return datetime.fromisoformat(value) if isinstance(value, str) else value
 
 
-def store_record(record: dict, imported: bool = False):
-    """Create or update the Run (and its machine, target, build, test case, series) a record describes."""
+def store_record(record: dict, imported: bool = False, only_new: bool = False):
+    """Create or update the Run (and its machine, target, build, test case, series) a record describes.
+
+    ``only_new``: store it only when no run of that identity is stored yet (the stored one is returned as it
+    is); a run another process stores at the same moment wins (``harness.coverage``)."""
+    from django.db import IntegrityError
+
+    record = finite(record)
+    if only_new:
+        try:
+            return _store(record, imported, only_new)
+        except IntegrityError:  # inserted meanwhile by another process (PostgreSQL's unique constraint)
+            return None
+    return _store(record, imported, only_new)
+
+
+def _store(record: dict, imported: bool, only_new: bool):
     from django.db import transaction
 
     from harness.models import Build, Machine, Run, Series, Target, TestCase
 
-    record = finite(record)
     with transaction.atomic():
         machine = Machine.objects.get_or_create(name=record["machine"])[0]
         target, created = Target.objects.get_or_create(name=record["target"])
@@ -54,6 +68,11 @@ def store_record(record: dict, imported: bool = False):
             _adopt_imported_build(build)
         testcase = TestCase.objects.get_or_create(path=record["testcase"])[0]
         content = record.get("testcase_hash") or ""
+        if only_new:
+            stored = Run.objects.filter(machine=machine, build=build, testcase=testcase, name=record["run"],
+                                        testcase_hash=content).first()
+            if stored is not None and not stored.replaced:
+                return stored  # a replaced (outdated) run of this content comes back as not executed
         fields = dict(
             target=target, state=record["state"], failure_reason=record.get("failure_reason", ""),
             failure_message=record.get("failure_message", ""), config=record.get("config") or {},

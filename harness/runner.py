@@ -154,8 +154,13 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
     """Build the target, discover its test cases and choose the runs to execute."""
     from harness.models import Run
 
+    from harness.coverage import record_selection
+
     build = build_target(target, options.machine, force=options.force_build, log=say)
     adapter = get_adapter(target.engine)
+    # every selected run configuration is in the store before any runs: one killed before it started is
+    # still there, not executed (harness.coverage)
+    record_selection(target, build, options.machine, options.pattern, options.working_tree)
     testcases, problems = discover(target, adapter, options.working_tree)
     report.problems.extend(problems)
     info = _build_info(build)

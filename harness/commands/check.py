@@ -15,6 +15,12 @@ def configure(parser):
     parser.add_argument("-q", dest="quiet", action="store_true", help="list only the runs that did not pass")
     parser.add_argument("--json", action="store_true", help="print the verdicts as JSON")
     parser.add_argument("--junit", metavar="FILE", help="write JUnit XML (Jenkins) to FILE")
+    add_allow_missing(parser)
+
+
+def add_allow_missing(parser):
+    parser.add_argument("--allow-missing", action="store_true",
+                        help="runs of the current build that were not executed are skipped, not failures")
 
 
 def verdict_dict(v) -> dict:
@@ -35,7 +41,7 @@ def run(args) -> int:
 
     setup_store()
     targets, problems = expand(args.targets, args.targets_dir)
-    report = check_targets(targets, args.machine, pattern=args.pattern)
+    report = check_targets(targets, args.machine, pattern=args.pattern, allow_missing=args.allow_missing)
     report.problems[:0] = problems
     for problem in report.problems:
         print(f"harness: {problem}", file=sys.stderr)

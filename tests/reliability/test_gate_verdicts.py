@@ -1,0 +1,108 @@
+"""A verdict a CI can gate on covers every selected run configuration: broken run.configs and runs that never
+ran are failures (unless --allow-missing), on a real store left by a `harness run -j 2` killed with SIGKILL, and
+`harness check --junit` and the dashboard's /junit.xml are the same bytes on that store."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+
+from provenance_support import ROOT, harness, harness_command, make_project, rows, write_target
+
+DASHBOARD_JUNIT = """
+import json, django
+django.setup()
+from django.test import Client
+from harness.models import Machine, Target
+client = Client()
+query = {"machine": Machine.objects.get(name="m1").pk, "target": Target.objects.get(name="solo").pk}
+response = client.get("/junit.xml", query)
+assert response.status_code == 200, response.status_code
+print(json.dumps(response.content.decode()))
+"""
+
+
+def _env(project, **extra) -> dict:
+    env = {k: v for k, v in os.environ.items() if k not in ("DJANGO_SETTINGS_MODULE", "HARNESS_DATABASE_URL")}
+    env.update({"PYTHONPATH": str(ROOT), "HARNESS_HOME": str(project["home"]), **extra})
+    return env
+
+
+def dashboard_junit(project) -> str:
+    done = subprocess.run([sys.executable, "-c", DASHBOARD_JUNIT], cwd=ROOT, capture_output=True, text=True,
+                          timeout=300, env=_env(project, DJANGO_SETTINGS_MODULE="webfrontend.settings"))
+    assert done.returncode == 0, done.stdout + done.stderr
+    return json.loads(done.stdout)
+
+
+def _cases(junit: str) -> dict:
+    out = {}
+    for case in ET.fromstring(junit).iter("testcase"):
+        failure, skipped = case.find("failure"), case.find("skipped")
+        status = "failed" if failure is not None else "skipped" if skipped is not None else "passed"
+        out[f"{case.get('classname')}/{case.get('name')}"] = (status, failure.get("type") if failure is not None
+                                                               else "")
+    return out
+
+
+def test_killed_run_and_broken_configs_fail_the_gate_and_both_junits_agree(tmp_path):
+    project = make_project(tmp_path, cases=3, sleep=1.5)
+    write_target(project["targets"], "solo", revision="v1", repo=project["repo"])
+    cases = project["root"] / "cases"
+    # a run.config that is not JSON, and one with a broken entry beside a good one
+    (cases / "broken").mkdir()
+    (cases / "broken" / "run.config").write_text('{"runs": [')
+    (cases / "half").mkdir()
+    (cases / "half" / "scene.json").write_text((cases / "c0" / "scene.json").read_text())
+    (cases / "half" / "run.config").write_text(json.dumps({"runs": [
+        {"name": "good", "script": "scene.json"}, {"name": "bad", "script": "scene.json", "timeout": "soon"}]}))
+    assert harness(project, "build", "solo").returncode == 0
+    # a real `harness run -j 2`, killed with SIGKILL while its first two runs are in flight
+    process = subprocess.Popen(harness_command(project, "run", "solo", "-j", "2", "-k", "c"), cwd=ROOT,
+                               env=_env(project), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        if (project["home"] / "harness.sqlite3").exists() and len(rows(
+                project, "SELECT id FROM harness_run WHERE started IS NOT NULL AND finished IS NULL")) >= 2:
+            break
+        time.sleep(0.05)
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait(timeout=30)
+    time.sleep(2)  # the orphaned engines end by themselves
+
+    junit = tmp_path / "junit.xml"
+    check = harness(project, "check", "solo", "--junit", str(junit))
+    assert check.returncode == 1, check.stdout + check.stderr
+    cli = junit.read_text()
+    verdicts = _cases(cli)
+    # every selected run configuration is there: 3 x 2 runs, the broken file, the half-broken test case
+    assert set(verdicts) == {f"solo.cases.c{i}/{r}" for i in range(3) for r in "ab"} | {
+        "solo.cases.broken/run.config", "solo.cases.half/good", "solo.cases.half/bad"}, verdicts
+    assert verdicts["solo.cases.broken/run.config"] == ("failed", "config")
+    assert verdicts["solo.cases.half/bad"] == ("failed", "config")
+    assert verdicts["solo.cases.half/good"] == ("failed", "not_executed")
+    assert sum(v == ("failed", "not_executed") for v in verdicts.values()) == 7  # 6 of c*, none ran to the end
+    assert "passed" not in {status for status, _ in verdicts.values()}
+    assert dashboard_junit(project) == cli
+
+    # --allow-missing: runs not executed are skipped, broken configurations still fail
+    allowed = harness(project, "check", "solo", "--allow-missing", "--json")
+    assert allowed.returncode == 1
+    statuses = {(v["testcase"], v["run"]): v["status"] for v in json.loads(allowed.stdout)}
+    assert statuses[("cases/half", "good")] == "skipped" and statuses[("cases/broken", "run.config")] == "failed"
+    assert harness(project, "check", "solo", "--allow-missing", "-k", "c0").returncode == 0
+
+    # the runs go, the gate passes once the broken files are mended; the JUnits still agree
+    (cases / "broken" / "run.config").write_text(json.dumps({"runs": [{"name": "x", "script": "s.json"}]}))
+    (cases / "broken" / "s.json").write_text((cases / "c0" / "scene.json").read_text())
+    (cases / "half" / "run.config").write_text(json.dumps({"runs": [{"name": "good", "script": "scene.json"}]}))
+    assert harness(project, "run", "solo", "-j", "2").returncode == 0
+    check = harness(project, "check", "solo", "--junit", str(junit))
+    assert check.returncode == 0, check.stdout + check.stderr
+    verdicts = _cases(junit.read_text())
+    assert len(verdicts) == 8 and {s for s, _ in verdicts.values()} == {"passed"}, verdicts
+    assert dashboard_junit(project) == junit.read_text()
