@@ -60,6 +60,8 @@ class RunReport:
     problems: list[str] = field(default_factory=list)
     skipped: int = 0
     elapsed: float = 0.0
+    #: the builds in use (``Workspace.use_lock``, shared) until the runs are stored: ``harness gc`` skips them
+    in_use: list = field(default_factory=list)
 
     @property
     def failed(self) -> list[dict]:
@@ -150,13 +152,30 @@ def _needs_run(existing, options: RunOptions) -> bool:
     return False
 
 
+def _build_in_use(target: TargetDefinition, options: RunOptions, report: RunReport, say):
+    """Build (or find) the target's build and hold its use lock: once held, ``harness gc`` leaves the build
+    and its run folders alone; a build gc removed just before is built again."""
+    from harness.builds import DONE_MARKER
+
+    force = options.force_build
+    while True:
+        build = build_target(target, options.machine, force=force, log=say)
+        lock = workspace().use_lock(target.name, build.key)
+        lock.acquire()
+        if not build.folder or (Path(build.folder) / DONE_MARKER).is_file():
+            report.in_use.append(lock)
+            return build
+        lock.release()  # removed between the build and the lock
+        force = False
+
+
 def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport, say) -> list[Task]:
     """Build the target, discover its test cases and choose the runs to execute."""
     from harness.models import Run
 
     from harness.coverage import record_selection
 
-    build = build_target(target, options.machine, force=options.force_build, log=say)
+    build = _build_in_use(target, options, report, say)
     adapter = get_adapter(target.engine)
     # every selected run configuration is in the store before any runs: one killed before it started is
     # still there, not executed (harness.coverage)
@@ -475,15 +494,20 @@ def run_targets(targets: list[TargetDefinition], options: RunOptions, out=None) 
     report = RunReport()
     tasks: list[Task] = []
     say = (lambda text: (out.write(text + "\n"), out.flush()))
-    for target in targets:
-        try:
-            tasks.extend(plan_target(target, options, report, say))
-        except UserError as exc:
-            report.problems.append(str(exc))
-    for problem in report.problems:
-        out.write(f"harness: {problem}\n")
     started = time.perf_counter()
-    execute_tasks(tasks, options, report, out)
+    try:
+        for target in targets:
+            try:
+                tasks.extend(plan_target(target, options, report, say))
+            except UserError as exc:
+                report.problems.append(str(exc))
+        for problem in report.problems:
+            out.write(f"harness: {problem}\n")
+        started = time.perf_counter()
+        execute_tasks(tasks, options, report, out)
+    finally:
+        for lock in report.in_use:
+            lock.release()
     report.elapsed = time.perf_counter() - started
     return report
 

@@ -24,7 +24,11 @@ def run(args) -> int:
     verb = "would remove" if args.dry_run else "removed"
     for path in result.build_folders + result.run_folders:
         print(f"{verb} {path}")
+    for what in result.skipped:
+        print(f"skipped {what}")
     print(f"{verb} {len(result.run_folders)} run folders and {len(result.build_folders)} build folders, "
-          f"{result.bytes / 1e6:.1f} MB; the store keeps every run's record (policy: the current build and the "
+          f"{result.bytes / 1e6:.1f} MB"
+          + (f"; skipped {len(result.skipped)} in use" if result.skipped else "")
+          + "; the store keeps every run's record (policy: the current build and the "
           f"{args.keep_builds} most recent other builds of each target keep their files)")
     return 0

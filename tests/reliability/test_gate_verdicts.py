@@ -4,6 +4,7 @@ ran are failures (unless --allow-missing), on a real store left by a `harness ru
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import os
 import signal
 import subprocess
@@ -106,3 +107,35 @@ def test_killed_run_and_broken_configs_fail_the_gate_and_both_junits_agree(tmp_p
     verdicts = _cases(junit.read_text())
     assert len(verdicts) == 8 and {s for s, _ in verdicts.values()} == {"passed"}, verdicts
     assert dashboard_junit(project) == junit.read_text()
+
+
+def test_gc_leaves_alone_what_a_running_harness_run_in_another_process_uses(tmp_path):
+    project = make_project(tmp_path, cases=2, sleep=1.0)
+    write_target(project["targets"], "solo", revision="v1", repo=project["repo"])
+    assert harness(project, "run", "solo").returncode == 0           # v1: the current build
+    # v2 is not the current build: with --keep-builds 0 its build and run folders are gc's to remove
+    process = subprocess.Popen(harness_command(project, "run", "solo@v2", "-j", "2"), cwd=ROOT,
+                               env=_env(project), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    in_flight = "SELECT r.folder FROM harness_run r JOIN harness_build b ON r.build_id = b.id " \
+                "WHERE b.\"commit\" = ? AND r.started IS NOT NULL AND r.finished IS NULL"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not rows(project, in_flight, project["v2"]):
+        time.sleep(0.05)
+    flying = rows(project, in_flight, project["v2"])
+    assert flying, "the run never started"
+    gc = harness(project, "gc", "--keep-builds", "0")
+    assert gc.returncode == 0, gc.stdout + gc.stderr
+    assert "skipped" in gc.stdout and "in use by another harness process" in gc.stdout, gc.stdout
+    assert all(Path(folder).is_dir() for (folder,) in flying)
+    builds = project["home"] / "builds" / "solo"
+    assert any(p.name.startswith(project["v2"][:12]) for p in builds.iterdir())
+    out, err = process.communicate(timeout=300)
+    assert process.returncode == 0, out + err
+    v2_runs = rows(project, "SELECT r.state, r.folder FROM harness_run r JOIN harness_build b ON r.build_id = b.id "
+                            "WHERE b.\"commit\" = ?", project["v2"])
+    assert len(v2_runs) == 4 and {state for state, _ in v2_runs} == {"post_processed"}, v2_runs
+    # nobody uses v2 now: gc removes its folders and says so
+    gc = harness(project, "gc", "--keep-builds", "0")
+    assert "skipped" not in gc.stdout, gc.stdout
+    assert not any(Path(folder).exists() for _, folder in v2_runs)
+    assert not any(p.name.startswith(project["v2"][:12]) for p in builds.iterdir())
