@@ -139,3 +139,44 @@ def test_gc_leaves_alone_what_a_running_harness_run_in_another_process_uses(tmp_
     assert "skipped" not in gc.stdout, gc.stdout
     assert not any(Path(folder).exists() for _, folder in v2_runs)
     assert not any(p.name.startswith(project["v2"][:12]) for p in builds.iterdir())
+
+
+def _processes_with(argument: str) -> list[int]:
+    found = []
+    for entry in os.scandir("/proc"):
+        if entry.name.isdigit():
+            try:
+                if argument.encode() in Path(entry.path, "cmdline").read_bytes().split(b"\0"):
+                    found.append(int(entry.name))
+            except OSError:
+                pass
+    return found
+
+
+def test_a_run_past_its_timeout_fails_and_post_script_daemons_die_with_the_run(tmp_path):
+    project = make_project(tmp_path, cases=1)
+    write_target(project["targets"], "solo", revision="v1", repo=project["repo"])
+    case = project["root"] / "cases" / "c0"
+    (case / "daemon.sh").write_text("#!/bin/sh\nsetsid sleep 987.125 >/dev/null 2>&1 < /dev/null &\n")
+    (case / "slow_daemon.sh").write_text("#!/bin/sh\nsetsid sleep 987.25 >/dev/null 2>&1 < /dev/null &\n"
+                                         "sleep 30\n")
+    for script in ("daemon.sh", "slow_daemon.sh"):
+        (case / script).chmod(0o755)
+    (case / "run.config").write_text(json.dumps({"runs": [
+        {"name": "tiny", "script": "scene.json", "timeout": 0.0001},
+        {"name": "daemon", "script": "scene.json", "post_scripts": ["daemon.sh"]},
+        {"name": "slow", "script": "scene.json", "post_scripts": ["slow_daemon.sh"], "timeout": 4}]}))
+    try:
+        result = harness(project, "run", "solo")
+        assert result.returncode == 1, result.stdout + result.stderr
+        states = {run: (state, reason) for run, state, reason in rows(
+            project, "SELECT name, state, failure_reason FROM harness_run")}
+        # the engine took far longer than 0.1 ms: the run outlived its timeout
+        assert states["tiny"] == ("failed", "timeout"), states
+        assert states["daemon"] == ("post_processed", ""), states
+        assert states["slow"] == ("failed", "post_script"), states
+        # neither daemon outlived its run, although both left the post script's session
+        assert _processes_with("987.125") == [] and _processes_with("987.25") == []
+    finally:
+        for pid in _processes_with("987.125") + _processes_with("987.25"):
+            os.kill(pid, signal.SIGKILL)
