@@ -15,6 +15,7 @@ from pathlib import Path
 
 from harness import runrecord
 from harness.adapters.base import UserError
+from harness.rules import SUCCESS_STATES
 from harness.runrecord import RECORD_FILE, finite
 
 
@@ -176,6 +177,8 @@ def import_folder(folder: Path, machine: str | None = None, replace: bool = Fals
     The record's folder is set to where the run folder is now. Returns (stored runs, problems): a record
     that does not validate, or conflicts with a stored one (unless ``replace``), is a problem and skipped.
     """
+    from django.db import DatabaseError
+
     folder = Path(folder)
     if not folder.is_dir():
         raise UserError(f"{folder}: not a folder")
@@ -189,9 +192,19 @@ def import_folder(folder: Path, machine: str | None = None, replace: bool = Fals
         record["folder"] = str(path.parent.resolve())
         if machine:
             record["machine"] = machine
+        where = runrecord.null_values(record)
+        if where and record["state"] in SUCCESS_STATES:
+            # a success holding non-finite values is what this harness fails as non_finite (harness.execute)
+            record.update(state="failed", failure_reason="non_finite",
+                          failure_message=f"imported with non-finite (null) values in {where}")
+            problems.append(f"{path}: $.series: non-finite (null) values in {where}; imported as failed "
+                            "(non_finite)")
         differs = conflict(record)
         if differs and not replace:
             problems.append(f"{path}: conflict: {differs}; not imported (--replace to replace the stored run)")
             continue
-        runs.append(store_record(record, imported=True))
+        try:
+            runs.append(store_record(record, imported=True))
+        except DatabaseError as exc:  # what the store refuses is this record's problem, not the others'
+            problems.append(f"{path}: the store refused it: {str(exc).strip().splitlines()[0][:200]}")
     return runs, problems

@@ -145,7 +145,38 @@ def validate(data) -> list[str]:
                         f"({RECORD_VERSION})")
     for i, series in enumerate(data.get("series", [])):
         problems += _series_problems(series, f"$.series[{i}]")
+    nul = _nul_path(data, "$")
+    if nul:  # PostgreSQL's text and jsonb cannot hold U+0000: no store takes it, so that both stores agree
+        problems.append(f"{nul}: holds a NUL character (U+0000)")
     return problems
+
+
+def _nul_path(value, where: str) -> str | None:
+    """JSON path of the first string (value or key) holding U+0000 in ``value``, or None."""
+    if isinstance(value, str):
+        return where if "\x00" in value else None
+    if isinstance(value, dict):
+        for key, item in value.items():
+            if "\x00" in key:
+                return f"{where} key {key[:40]!r}"
+            found = _nul_path(item, f"{where}.{key}")
+            if found:
+                return found
+    elif isinstance(value, list):
+        for i, item in enumerate(value):
+            found = _nul_path(item, f"{where}[{i}]")
+            if found:
+                return found
+    return None
+
+
+def null_values(data: dict) -> str | None:
+    """Where a record's series hold a null (a non-finite value written as null): ``"thermo.ke"``, or None."""
+    for series in data.get("series", []):
+        for name, values in (series.get("columns") or {}).items():
+            if any(v is None for v in values):
+                return f"{series.get('name')}.{name}"
+    return None
 
 
 def _series_problems(series, where: str) -> list[str]:
