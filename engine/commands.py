@@ -417,6 +417,17 @@ def set_velocity(sim, fields: Fields):
     sim.dirty = True
 
 
+def set_blowup(sim, fields: Fields):
+    """The blow-up limits for a hard case (engine/blowup.py): ``max_overlap`` (of the smaller radius),
+    ``timestep_factor`` (times the critical time step), ``enabled`` (false: no limit at all)."""
+    overlap = fields.number("max_overlap", positive=True)
+    factor = fields.number("timestep_factor", positive=True)
+    sim.blowup_overlap = sim.blowup_overlap if overlap is None else overlap
+    sim.blowup_timestep = sim.blowup_timestep if factor is None else factor
+    if not fields.boolean("enabled", True):
+        sim.blowup_overlap = sim.blowup_timestep = math.inf
+
+
 def get(sim, fields: Fields):
     prop = fields.string("property", required=True)
     if prop == "critical_timestep":
@@ -446,7 +457,7 @@ CREATE = {"domain": create_domain, "material": create_material, "interaction": c
           "lattice": create_lattice, "random_packing": create_random_packing, "modifier": create_modifier,
           "restart": create_restart, "region": create_region}
 SET = {"timestep": set_timestep, "skin": set_skin, "thermo": set_thermo, "timestep_check": set_timestep_check,
-       "restart": set_restart, "velocity": set_velocity}
+       "restart": set_restart, "velocity": set_velocity, "blowup": set_blowup}
 COMMANDS = {"create": create, "get": get, "set": set_property, "fix": fix, "unfix": unfix, "run": runner.run}
 
 

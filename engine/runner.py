@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 import numpy as np
 
-from . import guards, modifiers, quantities
+from . import blowup, guards, modifiers, quantities
 from . import threads as thread_pool
 from . import state as particle_state
 from .errors import RunFailure
@@ -184,6 +184,7 @@ def run(sim, fields: Fields):
             overlap_warned = True
             sim.log.warning(f"step {sim.step}: {n_large} contact(s) overlap more than "
                             f"{OVERLAP_WARN_RATIO:.0%} of the smaller radius (max {worst:.1%})")
+        blowup.check_overlap(sim, worst, fields.where)
         if sim.timestep_every and sim.step % sim.timestep_every == 0:
             guards.recheck_timestep(sim, fields.where, timestep_warned)
         modifiers.change_particles(sim)

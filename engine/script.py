@@ -111,6 +111,8 @@ def evaluate_expression(expression: str, variables: dict[str, str], where: str):
         raise fail(f"gives {value!r}, not a number")
     if isinstance(value, float) and not math.isfinite(value):
         raise fail(f"gives {value!r}, not a finite number")
+    if isinstance(value, int) and value.bit_length() > 1024:  # no double holds it (and its digits may not print)
+        raise fail(f"gives an integer of {value.bit_length()} bits, beyond double precision")
     if all_ints and isinstance(value, float) and value.is_integer():
         return int(value)
     return value
