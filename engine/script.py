@@ -284,6 +284,18 @@ class Fields:
             raise self.error(name, f"must be one of {', '.join(choices)}, got '{value}'")
         return value
 
+    def output_path(self, name, default=None, required=False):
+        """A file or folder the run writes: relative to the working folder and never leaving it (not absolute,
+        no '..' part), so that a run writes only into its own folder."""
+        value = self.string(name, default, required)
+        if value is None:
+            return None
+        parts = value.replace("\\", "/").split("/")
+        if not value or value.startswith("/") or ".." in parts:
+            raise self.error(name, f"'{value[:200]}' leaves the working folder: an output path must be relative "
+                             "and without '..'")
+        return value
+
     def boolean(self, name, default=None, required=False):
         value = self._get(name, default, required and default is None)
         if not isinstance(value, bool):
