@@ -327,6 +327,10 @@ def execute(spec: dict) -> dict:
         record["finished"] = now_iso()
         return fail(record, "config", f"cannot prepare run folder {spec['folder']}: {detail}")
     record["started"] = now_iso()
+    # what the run configuration declares to the engine itself (a relaxed blow-up limit: the adapter knows how)
+    declared = adapter.run_environment(spec.get("config") or {})
+    if declared:
+        spec = {**spec, "environment": {**(spec.get("environment") or {}), **declared}}
     start = time.perf_counter()
     code, timed_out = _run_engine(spec, folder, record)
     record["wall_time"] = time.perf_counter() - start
@@ -403,6 +407,12 @@ def postprocess_run(spec: dict, folder: Path, record: dict, adapter) -> None:
         return
     record["series"].extend(stored)
     frames["thermo"] = thermo
+    overlaps = adapter.largest_overlaps(folder)
+    if overlaps:  # the engine's own report, for the default blow-up check (harness.acceptance)
+        import pandas as pd
+
+        frames.setdefault("engine_log", pd.DataFrame({"block": range(1, len(overlaps) + 1),
+                                                      "max_overlap": overlaps}))
     try:
         from harness import acceptance
     except ImportError:

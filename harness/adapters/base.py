@@ -135,6 +135,16 @@ class EngineAdapter:
         """VTK dumps the run wrote, in output order."""
         raise NotImplementedError
 
+    def largest_overlaps(self, folder: Path) -> list[float]:
+        """The largest particle overlap / radius the engine reported, per run block ([]: it reports none);
+        the default blow-up check of harness.acceptance reads it when thermo has no max_overlap column."""
+        return []
+
+    def run_environment(self, config: dict) -> dict[str, str]:
+        """Environment variables that pass a run configuration's declarations to the engine (e.g. a relaxed
+        blow-up limit); none by default."""
+        return {}
+
     def default_run_config(self, folder: Path) -> dict | None:
         """A run.config for a test case folder that has none, or None if the folder is not a test case."""
         return None
