@@ -36,8 +36,9 @@ def _harness(project, *args):
 
 
 def test_blown_up_runs_fail_by_default_and_a_declared_hard_case_passes(tmp_path):
-    quiet = [c for c in gas(1.5, steps=200) if not (c.get("property") == "thermo")]  # no max_overlap column
-    off = quiet[:-1] + [{"command": "set", "property": "blowup", "enabled": False}, quiet[-1]]
+    full = gas(1.5, steps=200)
+    off = full[:-1] + [{"command": "set", "property": "blowup", "enabled": False}, full[-1]]
+    quiet = [c for c in off if c.get("property") != "thermo"]  # no max_overlap column
     project = _project(tmp_path, {"gas.json": gas(1.5, steps=200), "quiet.json": quiet, "off.json": off}, [
         {"name": "engine_stops_it", "script": "gas.json"},
         {"name": "harness_fails_it", "script": "off.json"},
