@@ -99,6 +99,14 @@ def record_selection(target, build, machine: str, pattern: str | None = None, wo
     return chosen
 
 
+def covered(runs, build=None):
+    """The runs of ``runs`` (a Run QuerySet) a verdict covers: live rows (not replaced by other content) of
+    each target's current build, or of ``build``. The overview, the dashboard's lists and ``covered_runs``
+    filter with it."""
+    runs = runs.filter(replaced=False)
+    return runs.filter(build=build) if build is not None else runs.filter(build__current=True)
+
+
 def covered_runs(machine_id: int | None = None, target_id: int | None = None, build=None, machine: str | None = None):
     """The runs a verdict covers, in report order: the live rows (not replaced by other content) of each
     target's current build - or of ``build`` - on each machine (optionally one machine and target). After
@@ -108,8 +116,7 @@ def covered_runs(machine_id: int | None = None, target_id: int | None = None, bu
 
     from harness.models import ConsistencyResult, Override, Run
 
-    runs = Run.objects.filter(replaced=False)
-    runs = runs.filter(build=build) if build is not None else runs.filter(build__current=True)
+    runs = covered(Run.objects.all(), build)
     if machine is not None:
         runs = runs.filter(machine__name=machine)
     if machine_id is not None:

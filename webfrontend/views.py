@@ -21,6 +21,7 @@ from django.views.decorators.http import require_POST
 from harness.builds import current_build
 from harness.models import Build, ConsistencyResult, Machine, Override, Run, Series, Target, TestCase
 from harness.queries import CONSISTENCY_CATEGORIES, STATE_CATEGORIES
+from harness.coverage import covered
 from harness.verdicts import current_runs, stored_junit_xml, stored_verdict
 from webfrontend import params, plots, presentation
 from webfrontend.forms import OverrideForm
@@ -40,8 +41,9 @@ LIST_DEFERRED = ("config", "command", "timing", "failure_message", "folder", "bu
 
 
 def _current(queryset):
-    """Runs of their target's current build that no newer run of other content replaced."""
-    return queryset.filter(build__current=True, replaced=False)
+    """Runs of their target's current build that no newer run of other content replaced: what a verdict
+    covers (harness.coverage, shared with `harness check` and the JUnit XML)."""
+    return covered(queryset)
 
 
 def _mode(request) -> tuple[str, str | None]:
