@@ -59,10 +59,14 @@ def selection(target, pattern: str | None = None, working_tree: bool = False):
     return chosen, specs
 
 
-def record_selection(target, build, machine: str, pattern: str | None = None, working_tree: bool = False):
+def record_selection(target, build, machine: str, pattern: str | None = None, working_tree: bool = False,
+                     missing: tuple[str, str] | None = None):
     """Bring the store's live rows of ``build`` on ``machine`` in line with the run configurations ``target``
     selects now (see the module docstring). Returns the Selection (None when the test cases cannot be read:
-    then nothing is changed)."""
+    then nothing is changed).
+
+    ``missing``: (failure reason, message) to record the run configurations without a row as failed with,
+    instead of not executed - e.g. the runs of a build that failed, which can never execute."""
     from harness import execute as ex
     from harness.adapters import get_adapter
     from harness.models import Run
@@ -89,9 +93,12 @@ def record_selection(target, build, machine: str, pattern: str | None = None, wo
                 record["finished"] = ex.now_iso()
                 store_record(record)
             continue
-        if row is None:
-            spec = make_spec(target, info, adapter, machine, testcase, entry)
-            store_record(ex.base_record(spec), only_new=True)
+        if row is None or (missing is not None and row.state == "not_executed"):
+            record = ex.base_record(make_spec(target, info, adapter, machine, testcase, entry))
+            if missing is not None:
+                record = ex.fail(record, *missing)
+                record["finished"] = ex.now_iso()
+            store_record(record, only_new=missing is None)
     # rows of run configurations the test cases no longer hold (within the selection's pattern)
     for (path, name, _content), row in live.items():
         if (path, name) not in chosen.content and matches(pattern, path, name):
