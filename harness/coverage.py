@@ -34,16 +34,19 @@ class Selection:
     problems: list[str] = field(default_factory=list)
 
 
-def selection(target, pattern: str | None = None, working_tree: bool = False):
-    """The run configurations ``target`` selects now (None: its test cases cannot be read)."""
+def selection(target, pattern: str | None = None, working_tree: bool = False, discovered=None):
+    """The run configurations ``target`` selects now (None: its test cases cannot be read); ``discovered``:
+    the (test cases, problems) of ``harness.testcases.discover`` when the caller has them already."""
     from harness.adapters import get_adapter
     from harness.adapters.base import UserError
     from harness.testcases import CONFIG_RUN, discover, matches
 
-    try:
-        testcases, problems = discover(target, get_adapter(target.engine), working_tree)
-    except UserError:
-        return None, []
+    if discovered is None:
+        try:
+            discovered = discover(target, get_adapter(target.engine), working_tree)
+        except UserError:
+            return None, []
+    testcases, problems = discovered
     chosen = Selection(problems=list(problems))
     specs = []
     for testcase in testcases:
@@ -60,7 +63,7 @@ def selection(target, pattern: str | None = None, working_tree: bool = False):
 
 
 def record_selection(target, build, machine: str, pattern: str | None = None, working_tree: bool = False,
-                     missing: tuple[str, str] | None = None):
+                     missing: tuple[str, str] | None = None, discovered=None):
     """Bring the store's live rows of ``build`` on ``machine`` in line with the run configurations ``target``
     selects now (see the module docstring). Returns the Selection (None when the test cases cannot be read:
     then nothing is changed).
@@ -74,7 +77,7 @@ def record_selection(target, build, machine: str, pattern: str | None = None, wo
     from harness.runner import _build_info, make_spec
     from harness.testcases import matches
 
-    chosen, specs = selection(target, pattern, working_tree)
+    chosen, specs = selection(target, pattern, working_tree, discovered)
     if chosen is None:
         return None
     adapter = get_adapter(target.engine)

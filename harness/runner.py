@@ -177,10 +177,11 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
 
     build = _build_in_use(target, options, report, say)
     adapter = get_adapter(target.engine)
+    testcases, problems = discover(target, adapter, options.working_tree)
     # every selected run configuration is in the store before any runs: one killed before it started is
     # still there, not executed (harness.coverage)
-    record_selection(target, build, options.machine, options.pattern, options.working_tree)
-    testcases, problems = discover(target, adapter, options.working_tree)
+    record_selection(target, build, options.machine, options.pattern, options.working_tree,
+                     discovered=(testcases, problems))
     report.problems.extend(problems)
     info = _build_info(build)
     # a run is the same run only at the same test case content: an edited scene is run again
