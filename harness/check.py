@@ -1,6 +1,8 @@
 """``harness check``: version consistency of a target's runs against its reference target, and JUnit XML.
 
-For every run of the target's current build (``harness.builds.current_build``: the build of the commit the
+Which runs get a verdict is ``harness.coverage``'s one rule: every selected run configuration of the
+target's current build (broken ones failed with reason config, runs not executed failures of the gate unless
+``allow_missing``). For every run of the target's current build (``harness.builds.current_build``: the build of the commit the
 revision resolves to now) at the test case content of now, the reference run is chosen by
 ``harness.rules.find_reference_run``: same test case, run name and content, by the reference target. A run
 whose test case changed since it ran is stale (a failure: run it again); a reference run of other content is
