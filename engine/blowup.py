@@ -9,8 +9,8 @@ for a run that wants it:
 - **Overlap.** The largest particle-particle overlap may not exceed ``max_overlap`` (default 0.5) of the
   smaller radius. Hertz and Hooke contacts are models of small overlaps (Hertz: d << R; physics.md); at half a
   radius two equal spheres' centres are 1.5 r apart and the contact force is an artefact of the time step.
-  A sound run stays far below: the collection's stability cases keep below 10 %, a soft (Y = 1e7 Pa) gas
-  at 0.2 of the critical time step reaches 21 % (tests/reliability/test_engine_verdicts.py and test_blowup.py measure these).
+  A sound run stays below: the collection's runs keep below 10 %, the scenes of testcases/scenes below 30 %,
+  a soft (Y = 1e7 Pa) gas at 0.2 of the critical time step reaches 21 % (tests/reliability/test_engine_verdicts.py and test_blowup.py measure these).
 - **Time step** (off unless set). The time step may not exceed ``timestep_factor`` times the critical time
   step min(Rayleigh time, Hertz time) of engine.guards.critical_timestep, at the run start or any re-check;
   ``timestep_factor`` 1 is five times the fraction 0.2 that only warns: at dt >= t_c a contact lasts about one
