@@ -145,9 +145,34 @@ def validate(data) -> list[str]:
                         f"({RECORD_VERSION})")
     for i, series in enumerate(data.get("series", [])):
         problems += _series_problems(series, f"$.series[{i}]")
+    problems += _length_problems(data)
     nul = _nul_path(data, "$")
     if nul:  # PostgreSQL's text and jsonb cannot hold U+0000: no store takes it, so that both stores agree
         problems.append(f"{nul}: holds a NUL character (U+0000)")
+    return problems
+
+
+def _length_problems(data: dict) -> list[str]:
+    """Texts longer than the store's columns hold (harness/models.py): PostgreSQL refuses them, SQLite would
+    keep them; both stores refuse the record so that they agree."""
+    try:
+        from harness.models import Build, Series, TestCase
+    except Exception:  # noqa: BLE001 - without a configured store there is no column to compare with
+        return []
+    limits = [("$.testcase", data.get("testcase"), TestCase, "path")]
+    build = data.get("build") if isinstance(data.get("build"), dict) else {}
+    limits += [(f"$.build.{key}", build.get(key), Build, key) for key in ("commit", "definition_hash", "revision")]
+    from harness.models import Run
+
+    limits.append(("$.testcase_hash", data.get("testcase_hash"), Run, "testcase_hash"))
+    for i, series in enumerate(data.get("series", [])):
+        if isinstance(series, dict):
+            limits += [(f"$.series[{i}].{key}", series.get(key), Series, key) for key in ("name", "x_column")]
+    problems = []
+    for where, value, model, field in limits:
+        limit = model._meta.get_field(field).max_length
+        if isinstance(value, str) and limit and len(value) > limit:
+            problems.append(f"{where}: {len(value)} characters, more than the store holds ({limit})")
     return problems
 
 

@@ -29,7 +29,8 @@ def postgres_url():
 
 
 def _records(project, folder: Path) -> None:
-    """Run folders of a real run, copied; one record gets a NUL byte, one nulls in its thermo series."""
+    """Run folders of a real run, copied; one record gets a NUL byte, one nulls in its thermo series, one a
+    commit longer than the store's column."""
     assert harness(project, "run", "dev", "--no-reference").returncode == 0
     shutil.copytree(project["home"] / "runs", folder)
     records = sorted(folder.rglob("run.json"))
@@ -37,6 +38,9 @@ def _records(project, folder: Path) -> None:
     bad = json.loads(records[0].read_text())
     bad["failure_message"] = "before\u0000after"
     records[0].write_text(json.dumps(bad))
+    long = json.loads(records[2].read_text())
+    long["build"]["commit"] = "f" * 65  # longer than the store's commit column
+    records[2].write_text(json.dumps(long))
     nan = json.loads(records[1].read_text())
     thermo = next(s for s in nan["series"] if s["kind"] == "thermo")
     thermo["columns"]["ke"][-1] = None
@@ -56,13 +60,19 @@ def test_both_stores_take_and_refuse_the_same_records(store, tmp_path, request):
     assert "Traceback" not in result.stderr
     assert result.returncode == 1
     problems = [line for line in result.stderr.splitlines() if line.startswith("harness: ")]
-    assert len(problems) == 2, result.stderr
-    assert f"{records[0]}: not a valid run record: $.failure_message: holds a NUL character" in problems[0] \
-        or f"{records[0]}: not a valid run record: $.failure_message: holds a NUL character" in problems[1]
-    assert "imported 3 runs; 2 problems" in result.stdout
+    assert len(problems) == 3, result.stderr
+    assert any(f"{records[0]}: not a valid run record: $.failure_message: holds a NUL character" in p
+               for p in problems), problems
+    assert any(f"{records[2]}: not a valid run record: $.build.commit: 65 characters, more than the store holds"
+               in p for p in problems), problems
+    assert any(f"{records[1]}: $.series: non-finite (null) values in thermo.ke" in p for p in problems), problems
+    assert "imported 2 runs; 3 problems" in result.stdout
     list_ = harness(project, "list", "--all-builds", "--json", "--machine", "far", env=env)
     runs = {(r["testcase"], r["run"]): r for r in json.loads(list_.stdout)}
-    assert len(runs) == 3, runs
+    assert len(runs) == 2, runs
+    long = json.loads(records[2].read_text())
+    long["build"]["commit"] = "f" * 65  # longer than the store's commit column
+    records[2].write_text(json.dumps(long))
     nan = json.loads(records[1].read_text())
     stored = runs[(nan["testcase"], nan["run"])]
     assert (stored["state"], stored["failure_reason"]) == ("failed", "non_finite"), stored
