@@ -5,9 +5,10 @@ bounded planes, cylinders with a turning surface or an extent, meshes that stand
 fields of `engine.walls.features`), gravity and periodic axes: a `Combination`. The builder fills the templates below - the
 neighbor loop, the wall loop and the step loop, each written once, after HOOMD-blue's
 ``PotentialPair<evaluator>`` - with exactly those pieces: the calls of the laws the scene names
-(`engine.models.LAWS`), their parameter columns and history slots. The source goes into a cache folder keyed
-by a hash of the engine's source and the combination and is compiled with ``@njit(cache=True)``, so a second
-run (another process) loads the machine code from disk. What the scene does not name is not in the source: no
+(`engine.models.LAWS`), their parameter columns and history slots. The source goes into a cache folder, named
+by a hash of its text, and is compiled with ``engine.jit.njit(cache=True)``: the machine code is keyed by the
+content of each function and of the functions it calls, so a second run (another process, another build of
+an engine whose kernels did not change) loads it from disk. What the scene does not name is not in the source: no
 branch in the pair loop, no history array (pair history has width 0 without a history submodel), no wall pass
 without walls, no mesh code without a mesh, no rotation code without a rotating mesh.
 
@@ -24,15 +25,15 @@ import string
 import sys
 from collections import namedtuple
 from dataclasses import dataclass
-from pathlib import Path
 
+from .jit import cache_dir
 from .models import LAWS, PARAMETERS, SUBMODELS, choices
 from .state import FIELD_NAMES
 from .walls import WALL_FIELDS
 
 #: scalars and small arrays every step reads: dt (s), characteristic velocity (m/s, Hooke), gravity (m/s^2, 3),
-#: domain lo, hi (m, 3), periodic (3 booleans), skin (m). Types that compiled code receives live in modules of
-#: the kernel source hash (the disk cache pickles them by module and name).
+#: domain lo, hi (m, 3), periodic (3 booleans), skin (m). The fields of a namedtuple that compiled code
+#: receives are part of its cache key (engine/jit.py).
 Constants = namedtuple("Constants", ["dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin"])
 
 NORMAL_MODELS = choices("normal")
@@ -696,9 +697,10 @@ MODULE = '''\
 from math import sqrt
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from engine.clock import now
+from engine.jit import njit
 from engine.neighbor import PARALLEL, rebuild
 ${imports}
 
@@ -872,24 +874,6 @@ def parameter_table(c: Combination, materials: dict, interactions: dict, ntypes:
 
 # ---------------------------------------------------------------- building and caching
 
-_SOURCES = ("kernels.py", "models.py", "contact_laws.py", "neighbor.py", "clock.py", "state.py", "walls.py",
-            "mesh.py")
-
-
-def _engine_source_hash() -> str:
-    digest = hashlib.sha256()
-    here = Path(__file__).parent
-    for name in _SOURCES:
-        digest.update((here / name).read_bytes())
-    return digest.hexdigest()
-
-
-def cache_dir() -> Path:
-    """$DEM_CACHE_DIR, else ~/.cache/dem-engine."""
-    env = os.environ.get("DEM_CACHE_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "dem-engine"
-
-
 _loaded: dict = {}
 
 
@@ -898,7 +882,9 @@ def build_kernel(c: Combination):
     if c in _loaded:
         return _loaded[c]
     source = generate_source(c)
-    key = hashlib.sha256((_engine_source_hash() + repr(c)).encode()).hexdigest()[:20]
+    # the file is named by its text; the machine code of each function in it is keyed by its content and the
+    # functions it calls (engine/jit.py): a commit that leaves both alone compiles nothing
+    key = hashlib.sha256(source.encode()).hexdigest()[:20]
     folder = cache_dir()
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"dem_kernel_{key}.py"

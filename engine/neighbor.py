@@ -18,7 +18,9 @@ the particle, never on the thread count.
 from collections import namedtuple
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
+
+from .jit import njit
 
 from .state import reorder
 
