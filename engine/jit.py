@@ -54,9 +54,20 @@ def _strip_docstring(node):
     return node
 
 
+def _code_text(code) -> str:
+    """A stable text of a code object (bytecode, names, constants; no positions), for functions whose source
+    cannot be read."""
+    consts = [_code_text(c) if isinstance(c, types.CodeType) else repr(c) for c in code.co_consts]
+    return f"{code.co_code.hex()} {code.co_names} {code.co_varnames} {consts}"
+
+
 def _tree(fn) -> str:
     """The function's definition as a syntax tree dump: no docstring, comments, decorators or positions."""
-    node = ast.parse(textwrap.dedent(inspect.getsource(fn))).body[0]
+    try:
+        source = textwrap.dedent(inspect.getsource(fn))
+    except (OSError, TypeError):
+        return _code_text(fn.__code__)
+    node = ast.parse(source).body[0]
     for inner in ast.walk(node):
         _strip_docstring(inner)
     if hasattr(node, "decorator_list"):
