@@ -34,8 +34,9 @@ from collections import namedtuple
 from pathlib import Path
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
+from .jit import njit
 from .neighbor import PARALLEL
 
 #: start (n+1): rows of particle i are start[i]..start[i+1]; tri (int32): the triangle of each entry; hist
