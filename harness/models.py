@@ -7,7 +7,7 @@ Artifacts stay on disk in the run folder; the store keeps what lists, plots and 
 from django.conf import settings
 from django.db import models
 
-from harness.queries import RunQuerySet, SeriesQuerySet
+from harness.queries import BuildQuerySet, RunQuerySet, SeriesQuerySet
 
 
 class Machine(models.Model):
@@ -59,6 +59,8 @@ class Build(models.Model):
     current = models.BooleanField(default=False, db_index=True,
                                   help_text="the build of the commit the target's revision resolved to when "
                                             "last asked (one per target and machine; harness.builds)")
+    objects = BuildQuerySet.as_manager()
+
     details = models.JSONField(default=dict, blank=True,
                                help_text="what the recipe recorded: duration_s, error (first error line), "
                                          "compiler, jobs, commands, cmake_options, env, patches, ccache")

@@ -118,9 +118,20 @@ def overview(request):
     uncounted = sorted(({"machine": r["machine__name"], "machine_id": r["machine_id"], "target": r["target__name"],
                          "target_id": r["target_id"], "runs": r["n"], "build": builds.get(key)}
                         for key, r in totals.items()), key=lambda u: (u["machine"], u["target"]))
+    failed_builds = Build.objects.unresolved_failures()
+    if selected is not None:
+        failed_builds = failed_builds.filter(machine_id=selected)
     return render(request, "webfrontend/overview.html", {
         "machines": machines, "mode": mode, "selected": selected, "uncounted": uncounted,
-        "all_machines": Machine.objects.order_by("name"), **found})
+        "failed_builds": failed_builds, "all_machines": Machine.objects.order_by("name"), **found})
+
+
+def build_detail(request, build_id):
+    """A build: state, duration, compiler, options, patches, ccache use, first error line and the log."""
+    build = get_object_or_404(Build.objects.select_related("target", "machine"), pk=build_id)
+    return render(request, "webfrontend/build.html", {
+        "build": build, "details": build.details or {},
+        "log": presentation.tail(build.log, settings.DASHBOARD_TEXT_LIMIT)})
 
 
 def testcase_runs(request, testcase):
