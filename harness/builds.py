@@ -417,8 +417,10 @@ def _in_range(repo, commit: str, entry: dict) -> bool:
 
 
 def ccache_folder() -> Path:
-    """The workspace's compiler cache, shared by every build of every target."""
-    return workspace().home / "ccache"
+    """The compiler cache shared by every build of every target: ``<workspace>/ccache``, or the folder
+    ``HARNESS_CCACHE_DIR`` names (e.g. one cache for several workspaces of a CI machine)."""
+    chosen = os.environ.get("HARNESS_CCACHE_DIR")
+    return Path(chosen).expanduser().resolve() if chosen else workspace().home / "ccache"
 
 
 def _setup_ccache(target: TargetDefinition, context: BuildContext) -> None:

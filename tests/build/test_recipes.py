@@ -227,3 +227,31 @@ def test_ctrl_c_during_a_build_leaves_no_half_built_cache_entry(store):
     again = harness(store / "home", store / "targets", "build", "tiny")
     assert again.returncode == 0, again.stderr
     assert "building tiny at" in again.stderr and (folder / "done").is_file()
+
+
+def test_build_without_names_leaves_on_demand_targets_out(store):
+    repo = tiny_repo(store / "repo")
+    write_target(store, "everyday", tiny_target(repo, revision="v1"))
+    write_target(store, "expensive", tiny_target(repo, revision="v2", on_demand=True))
+    result = harness(store / "home", store / "targets", "build")
+    assert result.returncode == 0, result.stderr
+    assert "everyday:" in result.stdout and "expensive" not in result.stdout + result.stderr
+    named = harness(store / "home", store / "targets", "build", "expensive", "-j", "1")
+    assert named.returncode == 0 and "expensive:" in named.stdout
+    bad = harness(store / "home", store / "targets", "build", "expensive", "-j", "0")
+    assert bad.returncode == 1 and bad.stderr == "harness: error: -j 0: must be at least 1\n"
+
+
+def test_the_liggghts_src_definition_loads_and_its_patch_ranges_name_commits_of_the_bundle():
+    from harness import gitrepo
+
+    target = load_target_file(Path(__file__).resolve().parents[2] / "targets" / "liggghts-src.json")
+    assert target.on_demand and target.recipe == "cmake" and target.export == ["src"]
+    assert [p.name for entry in target.patches for p in entry["files"]] == [
+        "utils-int-to-string.patch", "finish-pointer-comparison.patch", "dump-mesh-vtk-without-vtk.patch"]
+    if Path(target.repository).is_file():   # the fixture bundle (../shared/fixtures)
+        repo = gitrepo.open_repository(target.repository)
+        for entry in target.patches:
+            for key in ("from", "before"):
+                if entry[key]:
+                    assert gitrepo.resolve(repo, entry[key]).hexsha == entry[key]
