@@ -181,7 +181,7 @@ def build_target(target: TargetDefinition, machine_name: str, force: bool = Fals
             defaults={"revision": target.revision})
         if (build.status == Build.Status.FAILED and not force and not (build.details or {}).get("interrupted")
                 and build.finished is not None):
-            raise BuildError(failure_message(target.name, build))
+            raise BuildError(failure_message(target.name, build) + " - a stored result; --force builds it again")
         if not (build.status == Build.Status.COMPLETE and not force and (folder / DONE_MARKER).is_file()):
             _run_recipe(target, build, info, folder, say, jobs)
             if force:

@@ -255,3 +255,21 @@ def test_the_liggghts_src_definition_loads_and_its_patch_ranges_name_commits_of_
             for key in ("from", "before"):
                 if entry[key]:
                     assert gitrepo.resolve(repo, entry[key]).hexsha == entry[key]
+
+
+@pytest.mark.skipif(shutil.which("make") is None, reason="needs make")
+def test_make_recipe_runs_its_configure_commands_first_with_jobs_and_ccache(store):
+    repo = git_repo(store / "repo")
+    makefile = ("include config.mk\nhello: hello.o\n\tc++ -o hello hello.o\n"
+                "hello.o: hello.cpp\n\tc++ -c -DGREETING='\"$(GREETING)\"' -o hello.o hello.cpp\n")
+    source = '#include <cstdio>\nint main() { std::printf("%s\\n", GREETING); return 0; }\n'
+    commit_files(repo, {"src/Makefile": makefile, "src/hello.cpp": source}, "v1")
+    path = write_target(store, "hello", {"repository": str(repo.working_tree_dir), "recipe": "make",
+                                         "source_folder": "src", "make_target": "hello",
+                                         "generated_executable": "hello", "jobs": 2,
+                                         "configure": ["echo GREETING=configured > config.mk"]})
+    build = build_target(load_target_file(path), "m1")
+    assert run_binary(build) == "configured"
+    assert "echo GREETING=configured > config.mk" in build.log and "make -j2 hello" in build.log
+    if Path("/usr/lib/ccache").is_dir():   # Debian's compiler names that call ccache
+        assert build.details["ccache_stats"]["cache_miss"] == 1
