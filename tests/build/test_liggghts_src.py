@@ -68,7 +68,10 @@ def test_two_adjacent_commits_the_second_through_ccache_then_a_liggghts_run_on_e
     assert cold["patches"] == [] and cold["ccache"] is True
     second, warm, folder = build(project, "HEAD~2")
     assert first != second
-    assert warm["ccache_stats"]["cache_miss"] <= 2, warm["ccache_stats"]     # only what changed is compiled
+    # only what changed is compiled: input_mesh_tri.cpp, and the few files that include LIGGGHTS' generated
+    # headers (style_*.h name the build folder's absolute paths, version_liggghts.h the build time; measured:
+    # 9 misses of 328, docs/liggghts.md)
+    assert warm["ccache_stats"]["cache_miss"] <= 12, warm["ccache_stats"]
     hits = warm["ccache_stats"]["direct_cache_hit"] + warm["ccache_stats"]["preprocessed_cache_hit"]
     assert hits > 300
     if cold["ccache_stats"]["cache_miss"] > 300:   # the first build was cold in this cache
