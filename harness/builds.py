@@ -377,6 +377,8 @@ def _prepare_source(target: TargetDefinition, commit: str, context: BuildContext
     repo = gitrepo.open_repository(target.repository)
     gitrepo.export(repo, commit, target.export, root)
     context.say(f"exported {', '.join(target.export)} at {commit} from {target.repository}")
+    # git apply outside a repository: never look for the workspace's enclosing checkout
+    context.env.setdefault("GIT_CEILING_DIRECTORIES", str(context.folder))
     applied = []
     for entry in target.patches:
         if not _in_range(repo, commit, entry):
@@ -389,8 +391,6 @@ def _prepare_source(target: TargetDefinition, commit: str, context: BuildContext
         context.cmake_options.update(entry["cmake_options"])
     context.details["patches"] = applied
     context.details["env"] = dict(context.env)
-    # git apply outside a repository: never look for the workspace's enclosing checkout
-    context.env.setdefault("GIT_CEILING_DIRECTORIES", str(context.folder))
     _setup_ccache(target, context)
     context.details["compiler"] = _compiler_version(context)
     context.say(f"compiler: {context.details['compiler']}; jobs: {context.jobs}")

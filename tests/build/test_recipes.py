@@ -40,8 +40,10 @@ def test_cmake_recipe_exports_only_its_folder_and_applies_options_env_jobs_and_c
     assert "-DGREETING=hello" in build.log
 
 
-def test_patches_apply_to_their_commit_range_with_their_flags_and_count_in_the_hash(store):
+def test_patches_apply_to_their_commit_range_with_their_flags_and_count_in_the_hash(store, monkeypatch):
     repo = tiny_repo(store / "repo")
+    # the workspace inside a git checkout (as .harness/ in the project): patches still apply to the export
+    monkeypatch.setenv("HARNESS_HOME", str(store / "repo" / ".harness"))
     fixed = commit_files(repo, {"src/other.cpp": 'const char *other() { return "fixed"; }\n'}, "fix", tag="fix")
     patch = store / "targets" / "patches" / "other.patch"
     patch.parent.mkdir(parents=True)
@@ -273,3 +275,17 @@ def test_make_recipe_runs_its_configure_commands_first_with_jobs_and_ccache(stor
     assert "echo GREETING=configured > config.mk" in build.log and "make -j2 hello" in build.log
     if Path("/usr/lib/ccache").is_dir():   # Debian's compiler names that call ccache
         assert build.details["ccache_stats"]["cache_miss"] == 1
+
+
+def test_a_patch_that_does_not_apply_is_a_failed_build_naming_the_patch(store):
+    repo = tiny_repo(store / "repo")
+    patch = store / "targets" / "patches" / "stale.patch"
+    patch.parent.mkdir(parents=True)
+    patch.write_text("--- a/src/other.cpp\n+++ b/src/other.cpp\n@@ -1 +1 @@\n"
+                     '-const char *other() { return "v0"; }\n+const char *other() { return "x"; }\n')
+    target = load_target_file(write_target(store, "tiny", tiny_target(repo, revision="v1",
+                                                                       patches=[{"files": ["patches/stale.patch"]}])))
+    with pytest.raises(BuildError) as info:
+        build_target(target, "m1")
+    first_line = str(info.value).splitlines()[0]
+    assert "error: patch failed: src/other.cpp:1" in first_line, first_line
