@@ -232,14 +232,15 @@ def _package_installed(package: str) -> bool | None:
 _ERROR_PATTERNS = (
     re.compile(r"^\S.*?:\d+(:\d+)?: (fatal )?error: .*"),    # gcc/clang: file:line:col: error: ...
     re.compile(r"^CMake Error.*"),
+    re.compile(r"^error: patch failed: .*"),                  # git apply: the file and line that did not match
     re.compile(r".*undefined reference to .*"),
     re.compile(r".*\berror\b.*", re.IGNORECASE),
 )
 
 
 def first_error_line(log: str) -> str | None:
-    """The first error line of a build log (the compiler's ``file:line: error:``, else CMake's, the
-    linker's, else any line saying error), stripped; None when there is none."""
+    """The first error line of a build log (the compiler's ``file:line: error:``, else CMake's, a patch's,
+    the linker's, else any line saying error), stripped; None when there is none."""
     lines = log.splitlines()
     for pattern in _ERROR_PATTERNS:
         for index, line in enumerate(lines):

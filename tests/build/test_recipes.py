@@ -289,3 +289,4 @@ def test_a_patch_that_does_not_apply_is_a_failed_build_naming_the_patch(store):
         build_target(target, "m1")
     first_line = str(info.value).splitlines()[0]
     assert "error: patch failed: src/other.cpp:1" in first_line, first_line
+    assert "applying patch stale.patch exited with code 1" in str(info.value)
