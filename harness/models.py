@@ -7,7 +7,7 @@ Artifacts stay on disk in the run folder; the store keeps what lists, plots and 
 from django.conf import settings
 from django.db import models
 
-from harness.queries import RunQuerySet, SeriesQuerySet
+from harness.queries import BuildQuerySet, RunQuerySet, SeriesQuerySet
 
 
 class Machine(models.Model):
@@ -59,6 +59,11 @@ class Build(models.Model):
     current = models.BooleanField(default=False, db_index=True,
                                   help_text="the build of the commit the target's revision resolved to when "
                                             "last asked (one per target and machine; harness.builds)")
+    objects = BuildQuerySet.as_manager()
+
+    details = models.JSONField(default=dict, blank=True,
+                               help_text="what the recipe recorded: duration_s, error (first error line), "
+                                         "compiler, jobs, commands, cmake_options, env, patches, ccache")
 
     class Meta:
         constraints = [models.UniqueConstraint(fields=["target", "machine", "commit", "definition_hash"],
@@ -71,6 +76,15 @@ class Build(models.Model):
     def key(self) -> str:
         """Short folder-safe name of the build: commit and definition hash prefixes."""
         return f"{self.commit[:12]}-{self.definition_hash[:8]}"
+
+    @property
+    def duration(self) -> float | None:
+        """Build time in seconds (None while building or for builds recorded without it)."""
+        if (self.details or {}).get("duration_s") is not None:
+            return self.details["duration_s"]
+        if self.started and self.finished:
+            return (self.finished - self.started).total_seconds()
+        return None
 
 
 class TestCase(models.Model):

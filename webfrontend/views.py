@@ -107,8 +107,14 @@ def overview(request):
     if selected is not None:
         runs, everything = runs.filter(machine_id=selected), everything.filter(machine_id=selected)
     machines = runs.overview()
-    builds = {(b.machine_id, b.target_id): b for b in Build.objects.filter(current=True).only(
-        "id", "machine_id", "target_id", "revision", "commit", "committed_at")}
+    # the current builds and the failed builds not followed by a success, in one query
+    shown = list(Build.objects.filter(Q(current=True) | Q(pk__in=Build.objects.unresolved_failures().values("pk")))
+                 .select_related("target", "machine").defer("log", "environment", "commit_message"))
+    builds = {(b.machine_id, b.target_id): b for b in shown if b.current}
+    failed_builds = sorted((b for b in shown if b.status == Build.Status.FAILED and not b.current),
+                           key=lambda b: (b.machine.name, b.target.name, -(b.finished.timestamp() if b.finished else 0)))
+    if selected is not None:
+        failed_builds = [b for b in failed_builds if b.machine_id == selected]
     totals = {(row["machine_id"], row["target_id"]): row for row in everything.values(
         "machine_id", "machine__name", "target_id", "target__name").annotate(n=Count("id")).order_by()}
     for machine in machines:
@@ -122,7 +128,15 @@ def overview(request):
                         for key, r in totals.items()), key=lambda u: (u["machine"], u["target"]))
     return render(request, "webfrontend/overview.html", {
         "machines": machines, "mode": mode, "selected": selected, "uncounted": uncounted,
-        "all_machines": Machine.objects.order_by("name"), **found})
+        "failed_builds": failed_builds, "all_machines": Machine.objects.order_by("name"), **found})
+
+
+def build_detail(request, build_id):
+    """A build: state, duration, compiler, options, patches, ccache use, first error line and the log."""
+    build = get_object_or_404(Build.objects.select_related("target", "machine"), pk=build_id)
+    return render(request, "webfrontend/build.html", {
+        "build": build, "details": build.details or {},
+        "log": presentation.tail(build.log, settings.DASHBOARD_TEXT_LIMIT)})
 
 
 def testcase_runs(request, testcase):
