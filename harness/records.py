@@ -61,7 +61,8 @@ def store_record(record: dict, imported: bool = False):
             exit_code=record.get("exit_code"), started=_when(record.get("started")),
             finished=_when(record.get("finished")), wall_time=record.get("wall_time"),
             stepping_time=record.get("stepping_time", runrecord.stepping_time_of(record.get("timing"))),
-            timing=record.get("timing") or {}, warning_count=record.get("warning_count", 0),
+            timing=record.get("timing") or {}, breakdown=record.get("breakdown") or {},
+            profile=record.get("profile") or "", warning_count=record.get("warning_count", 0),
             consistency="", consistency_min=None, reference_run=None, replaced=False)
         run, _ = Run.objects.update_or_create(machine=machine, build=build, testcase=testcase,
                                               name=record["run"], testcase_hash=content, defaults=fields)
