@@ -24,6 +24,14 @@ def run(args) -> int:
     verb = "would remove" if args.dry_run else "removed"
     for path in result.build_folders + result.run_folders:
         print(f"{verb} {path}")
+    from harness.gc import collect_profiles
+
+    samples = collect_profiles(args.dry_run, None if args.all_machines else args.machine)
+    for path in samples.run_folders:
+        print(f"{verb} {path}")
+    if samples.run_folders:
+        print(f"{verb} the raw profile samples of {len(samples.run_folders)} runs of builds that are not current, "
+              f"{samples.bytes / 1e6:.1f} MB (their folded stacks stay)")
     print(f"{verb} {len(result.run_folders)} run folders and {len(result.build_folders)} build folders, "
           f"{result.bytes / 1e6:.1f} MB; the store keeps every run's record (policy: the current build and the "
           f"{args.keep_builds} most recent other builds of each target keep their files)")

@@ -4,6 +4,7 @@ the bundled engine (its breakdown names the phase). All through the real CLI, re
 import json
 import re
 import subprocess
+from pathlib import Path
 
 import pytest
 from efficiency_support import ROOT, commit_files, git_repo, harness, make_code_project, rows
@@ -67,3 +68,52 @@ def test_compare_profile_prints_the_functions_whose_share_grew(tmp_path):
     assert explained["functions"][0]["function"] == "compute_pair_forces"
     assert explained["sections"][0]["section"] == "pair"
     assert explained["time_ratio"] > 1.5
+
+
+@pytest.mark.slow
+def test_bisect_slower_names_the_engine_phase_with_the_planted_busy_loop(tmp_path):
+    clone = tmp_path / "clone"
+    subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
+    subprocess.run(["git", "-C", str(clone), "tag", "good"], check=True)
+    repo = git_repo(clone)
+    output = clone / "engine" / "output.py"
+    text = output.read_text()
+    anchor = '        sim.timing["output"] += time.perf_counter() - t0\n'
+    assert anchor in text, "the output timer line moved: update the planted change"
+    # 20 ms of busy waiting in every output (thermo rows, dumps): the output phase of the step loop
+    busy = "        spin_until = time.perf_counter() + 0.02\n        while time.perf_counter() < spin_until:\n            pass\n"
+    commit_files(repo, {"NOTES.txt": "unrelated\n"}, "docs only")
+    slow = commit_files(repo, {"engine/output.py": text.replace(anchor, busy + anchor, 1)}, "wait in every output")
+    commit_files(repo, {"NOTES.txt": "unrelated again\n"}, "docs only again")
+    targets = tmp_path / "targets"
+    targets.mkdir()
+    (targets / "dem.json").write_text(json.dumps({"repository": str(clone), "revision": "HEAD",
+                                                  "testcases": [str(ROOT / "testcases" / "analytic")]}))
+    project = {"targets": targets, "home": tmp_path / "home"}
+    result = harness(project, "bisect", "dem", "good", "HEAD", "-k", "free_fall/dt1e-4", "--slower", "2",
+                     "--profile", timeout=1500)
+    assert result.returncode == 0, result.stdout + result.stderr
+    out = result.stdout
+    assert f"first bad commit: {slow}" in out and "wait in every output" in out
+    assert "breakdown (grew most: output)" in out
+    sections = table_after(out, "breakdown (grew most")
+    # 21 thermo rows (2,000 steps, every 100) of 20 ms each: at least 0.42 s more output time
+    assert sections[0][0] == "output" and float(sections[0][3]) >= 0.42
+    # the engine's profile is its phase timers: the output phase's share grew most
+    assert "profile (share grew most: output)" in out
+
+
+def test_gc_collects_the_raw_samples_of_old_builds_and_keeps_folded_stacks(tmp_path):
+    project = make_code_project(tmp_path, commits=1, slow_at=5, profile=False)
+    _ok(harness(project, "run", "mini@good", "--profile"))
+    _ok(harness(project, "run", "mini", "--profile"))
+    profiled = dict(rows(project, "SELECT b.current, r.folder FROM harness_run r JOIN harness_build b "
+                                  "ON r.build_id = b.id WHERE r.profile = 'profile.folded'"))
+    old, current = Path(profiled[0]), Path(profiled[1])
+    assert (old / "perf.data").is_file() and (current / "perf.data").is_file()
+    listed = _ok(harness(project, "gc", "--dry-run")).stdout
+    assert f"would remove {old / 'perf.data'}" in listed and str(current / "perf.data") not in listed
+    assert (old / "perf.data").is_file()
+    _ok(harness(project, "gc"))
+    assert not (old / "perf.data").exists() and (old / "profile.folded").is_file()  # --keep-builds 2 keeps old/
+    assert (current / "perf.data").is_file() and (current / "profile.folded").is_file()
