@@ -244,8 +244,9 @@ def tree(stacks: Counter, root: str = "all") -> dict:
 
 
 def diff_tree(a: Counter, b: Counter, root: str = "all") -> dict:
-    """B's tree, each node with ``delta``: its samples in B minus in A, A scaled to B's sample count (a
-    differential flame graph: B's shape, coloured by growth)."""
+    """B's tree, each node with ``delta``: its own (self) samples in B minus in A, A scaled to B's sample
+    count; summed over a node's subtree that is the growth of the node's inclusive samples (a differential
+    flame graph: B's shape, coloured by growth)."""
     total_a, total_b = sum(a.values()), sum(b.values())
     scale = total_b / total_a if total_a else 0.0
     scaled = Counter({stack: count * scale for stack, count in a.items()})
@@ -259,9 +260,11 @@ def diff_tree(a: Counter, b: Counter, root: str = "all") -> dict:
     result = tree(b, root)
 
     def mark(node, path):
-        node["delta"] = round(node["value"] - index.get(path, 0.0), 3)
-        for child in node.get("children", []):
-            mark(child, path + (child["name"],))
+        inclusive = node["value"] - index.get(path, 0.0)
+        below = sum(mark(child, path + (child["name"],)) for child in node.get("children", []))
+        # d3-flame-graph's computeDelta sums a node's own delta and its children's: each node keeps its own
+        node["delta"] = round(inclusive - below, 3)
+        return inclusive
 
     mark(result, ())
     return result
