@@ -11,3 +11,16 @@ def breakdown_table(runs):
     from webfrontend.efficiency import breakdown_context
 
     return breakdown_context(runs if isinstance(runs, (list, tuple)) else [runs])
+
+
+@register.filter
+def share(value):
+    """A fraction as a percentage with one decimal (0.123 -> '12.3 %', growth with its sign); '-' for none."""
+    if value is None:
+        return "-"
+    return f"{100 * value:.1f} %"
+
+
+@register.filter
+def growth(value):
+    return "-" if value is None else f"{100 * value:+.1f} %"
