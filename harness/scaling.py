@@ -102,10 +102,22 @@ def expand(entry: dict, parallelism: str = "mpi") -> list[dict]:
     return points
 
 
+def point_of(config: dict) -> dict | None:
+    """The ``scaling_point`` a run configuration carries when ``expand`` made it (study name, cores >= 1); None
+    for other runs, and for a run.config that writes a malformed one by hand."""
+    point = config.get("scaling_point") if isinstance(config, dict) else None
+    if not isinstance(point, dict) or not isinstance(point.get("study"), str):
+        return None
+    cores = point.get("cores")
+    if isinstance(cores, bool) or not isinstance(cores, int) or cores < 1:
+        return None
+    return point
+
+
 def thread_environment(config: dict) -> dict[str, str]:
     """Thread-count variables of a threaded scaling point (empty for other runs)."""
-    point = config.get("scaling_point") or {}
-    if point.get("parallelism") != "threads":
+    point = point_of(config)
+    if point is None or point.get("parallelism") != "threads":
         return {}
     return {"NUMBA_NUM_THREADS": str(point["cores"]), "OMP_NUM_THREADS": str(point["cores"])}
 
@@ -177,8 +189,9 @@ def studies_in_store(runs) -> list[Study]:
     rows = (runs.filter(config__has_key="scaling_point").select_related("testcase")
             .only("id", "state", "config", "stepping_time", "breakdown", "testcase__path"))
     for run in rows:
-        point = run.config["scaling_point"]
-        groups.setdefault((run.testcase.path, point["study"]), []).append(run)
+        point = point_of(run.config)
+        if point is not None:
+            groups.setdefault((run.testcase.path, point["study"]), []).append(run)
     studies = []
     for (testcase, name), members in sorted(groups.items()):
         first = members[0].config["scaling_point"]
@@ -220,7 +233,9 @@ def history(target_id: int, machine_id: int) -> dict[str, list[dict]]:
             .select_related("testcase").only("id", "build_id", "state", "config", "stepping_time", "testcase__path"))
     grouped: dict[tuple, list] = {}
     for run in runs:
-        grouped.setdefault((run.testcase.path, run.config["scaling_point"]["study"], run.build_id), []).append(run)
+        point = point_of(run.config)
+        if point is not None:
+            grouped.setdefault((run.testcase.path, point["study"], run.build_id), []).append(run)
     out: dict[str, list[dict]] = {}
     for (testcase, name, build_id), members in grouped.items():
         kind = members[0].config["scaling_point"].get("kind", "strong")
