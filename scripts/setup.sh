@@ -4,7 +4,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-apt_packages=(liggghts liggghts-doc lammps lammps-examples yade openmpi-bin chromium make gcc postgresql)
+# linux-perf: harness run --profile (perf record -g); g++: the small C++ code of tests/efficiency
+apt_packages=(liggghts liggghts-doc lammps lammps-examples yade openmpi-bin chromium make gcc g++ linux-perf postgresql)
 if [ "${HARNESS_SKIP_APT:-0}" != 1 ] && command -v apt-get >/dev/null 2>&1; then
     missing=()
     for p in "${apt_packages[@]}"; do
