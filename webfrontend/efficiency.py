@@ -14,7 +14,7 @@ from django.urls import reverse
 from harness import breakdown as bd
 from harness import profiles, scaling
 from harness.models import Build, Machine, Run, Target, TestCase
-from webfrontend import params
+from webfrontend import params, plots
 
 #: colours of the sections, in harness.breakdown.SECTIONS order (those of the timing bars, parts/timing.html)
 SECTION_COLORS = dict(zip(bd.SECTIONS, ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#7f7f7f")))
@@ -51,8 +51,9 @@ def scaling_page(request):
     """Scaling studies of the current build of every target (per machine), and per target the efficiency at
     the most cores over its commits: a revision that scales worse shows even when one-core speed holds."""
     machine_id = params.optional_id(request.GET, "machine")
-    builds = (Build.objects.filter(current=True, status=Build.Status.COMPLETE,
-                                   runs__config__has_key="scaling_point")
+    build_id = params.optional_id(request.GET, "build")  # one revision's studies instead of the current ones
+    chosen = {"pk": build_id} if build_id is not None else {"current": True}
+    builds = (Build.objects.filter(status=Build.Status.COMPLETE, runs__config__has_key="scaling_point", **chosen)
               .select_related("target", "machine").defer("log").distinct().order_by("machine__name", "target__name"))
     if machine_id is not None:
         builds = builds.filter(machine_id=machine_id)
@@ -64,8 +65,32 @@ def scaling_page(request):
         sections.append({"build": build, "studies": [
             {"study": s, "history": [dict(row, bar=100.0 * min(1.0, max(0.0, row["efficiency"] or 0.0)))
                                      for row in history.get(s.key, [])]} for s in studies]})
-    return render(request, "webfrontend/scaling.html", {"sections": sections,
+    return render(request, "webfrontend/scaling.html", {"sections": sections, "build_id": build_id,
                                                         "machines": Machine.objects.order_by("name")})
+
+
+def scaling_plots(request, build_id, testcase, name):
+    """Two plots of a study: speedup against cores with the ideal line (S = P), and the efficiency at the most
+    cores over the target's commits (oldest first)."""
+    build = get_object_or_404(Build.objects.select_related("target").defer("log"), pk=build_id)
+    runs = Run.objects.filter(build=build, testcase__path=testcase, replaced=False)
+    study = next((s for s in scaling.studies_in_store(runs) if s.name == name), None)
+    if study is None:
+        raise Http404("no such scaling study")
+    cores = [p.cores for p in study.points]
+    base = cores[0]
+    title = f"{build.target.name}: {study.key}"
+    speedup = plots.plot(f"{title}: speedup ({study.kind} scaling)", "cores", "speedup [1]", cores, [
+        {"label": "measured", "values": [p.speedup for p in study.points], "color": plots.PALETTE[0], "points": True},
+        {"label": "ideal (S = P)", "values": [c / base for c in cores], "color": "#888888", "dash": True}])
+    history = scaling.history(build.target_id, build.machine_id).get(study.key, [])
+    efficiency = plots.plot(f"{title}: efficiency at the most cores per commit", "commit (oldest first)",
+                            "parallel efficiency [1]", list(range(len(history))), [
+        {"label": "efficiency", "values": [r["efficiency"] for r in history], "color": plots.PALETTE[1],
+         "points": True},
+        {"label": "serial fraction", "values": [r["serial_fraction"] for r in history], "color": plots.PALETTE[2],
+         "points": True, "dash": True}], xticks=[r["commit"][:10] for r in history])
+    return JsonResponse({"plots": [speedup, efficiency]})
 
 
 # ---------------------------------------------------------------------------------------------- breakdown

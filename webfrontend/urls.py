@@ -28,6 +28,8 @@ urlpatterns = [
     path("sweeps/<id:build_id>/<relpath:testcase>/<segment:name>.json", views.sweep_plots, name="sweep-plots"),
     path("regressions/", views.regressions, name="regressions"),
     path("scaling/", efficiency.scaling_page, name="scaling"),
+    path("scaling/<id:build_id>/<relpath:testcase>/<segment:name>.json", efficiency.scaling_plots,
+         name="scaling-plots"),
     path("breakdown/<id:target_id>/<relpath:testcase>/", efficiency.breakdown_history, name="breakdown"),
     path("runs/<id:run_id>/profile/", efficiency.profile_page, name="run-profile"),
     path("runs/<id:run_id>/profile.json", efficiency.profile_json, name="run-profile-json"),

@@ -35,3 +35,18 @@ class FlameGraphBrowserTest(BrowserCase):
         assert red > green and red > blue, fill  # grew: red (d3-flame-graph's differential colours)
         self.page.wait_for_timeout(1000)  # d3-flame-graph's transitions
         self.page.screenshot(path=str(ARTIFACTS / "flamegraph_differential.png"), full_page=True)
+
+    def test_scaling_page_draws_speedup_and_efficiency_over_commits(self):
+        from harness import scaling
+        from harness.models import Build, Run
+
+        build = self.s["new_build"]
+        Build.objects.filter(pk=build.pk).update(current=True)
+        case = self.s["inconsistent"].testcase
+        for point, seconds in zip(scaling.expand({"name": "box", "script": "s.json", "scaling": {"cores": [1, 2]}},
+                                                 "threads"), (4.0, 2.5)):
+            Run.objects.create(machine=build.machine, target=build.target, build=build, testcase=case,
+                               name=point["name"], state="post_processed", config=point, stepping_time=seconds)
+        self.page.goto(f"{self.live_server_url}/scaling/")
+        assert self.charts_drawn(".scaling .plots") == 2
+        self.page.screenshot(path=str(ARTIFACTS / "scaling.png"), full_page=True)

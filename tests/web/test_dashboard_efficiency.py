@@ -77,6 +77,21 @@ class EfficiencyPagesTest(TestCase):
         # commit a: S = 10/5.5 = 1.818, E = 91 %; commit b scales worse at the same one-core time
         self.assertEqual(rows, [("a" * 10, "91"), ("b" * 10, "62")])
 
+    def test_scaling_plots_and_one_revisions_studies(self):
+        current = self.builds[1]
+        data = self.client.get(f"/scaling/{current.pk}/{self.case.path}/scaling.json").json()
+        speedup, efficiency = data["plots"]
+        self.assertEqual(speedup["x"], [1, 2])
+        self.assertEqual(speedup["series"][0]["values"], [1.0, 1.25])
+        self.assertEqual(speedup["series"][1]["values"], [1.0, 2.0])
+        self.assertEqual(efficiency["xticks"], ["a" * 10, "b" * 10])
+        self.assertAlmostEqual(efficiency["series"][0]["values"][0], 10 / 5.5 / 2)
+        self.assertEqual(self.client.get(f"/scaling/{current.pk}/{self.case.path}/nope.json").status_code, 404)
+        older = self.client.get(f"/scaling/?build={self.builds[0].pk}").content.decode()
+        table = older.split("scaling-table")[1].split("</table>")[0]
+        self.assertIn("<td class=\"num\">1.818</td>", table)
+        self.assertIn(f'href="/scaling/?build={self.builds[0].pk}"', self.client.get("/scaling/").content.decode())
+
     def test_breakdown_over_commits_draws_one_bar_per_commit_on_one_scale(self):
         html = self.client.get(f"/breakdown/{self.target.pk}/{self.case.path}/").content.decode()
         serial = html.split("<h2>serial</h2>")[1].split("</section>")[0]
