@@ -45,7 +45,8 @@ def validate(entry: dict) -> list[str]:
         return []
     if not isinstance(block, dict):
         return ["scaling: must be an object with cores (a list of core counts) and optionally kind and with"]
-    errors = [f"scaling.{key}: unknown field (known: cores, kind, with)" for key in sorted(set(block) - {"cores", "kind", "with"})]
+    errors = [f"scaling.{key}: unknown field (known: cores, kind, with)"
+              for key in sorted(set(block) - {"cores", "kind", "with"})]
     cores = block.get("cores")
     if not isinstance(cores, list) or len(cores) < 2:
         errors.append("scaling.cores: must be a list of at least two core counts, e.g. [1, 2]")

@@ -20,7 +20,8 @@ def configure(parser):
     parser.add_argument("--working-tree", action="store_true",
                         help="take test cases from the working tree instead of testcases_revision")
     parser.add_argument("--no-run", action="store_true", help="only tabulate the points already in the store")
-    parser.add_argument("--profile", action="store_true", help="record a profile of every point (harness run --profile)")
+    parser.add_argument("--profile", action="store_true",
+                        help="record a profile of every point (harness run --profile)")
 
 
 def run(args) -> int:

@@ -47,7 +47,10 @@ __attribute__((noinline)) void compute_pair_forces(Particles &p, const std::vect
     for (size_t k = 0; k + 1 < pairs.size(); k += 2) {
         int i = pairs[k], j = pairs[k + 1];
         double overlap = 0.01 - std::fabs(p.z[i] - p.z[j]);
-        if (overlap > 0) { double s = p.z[i] > p.z[j] ? 1 : -1; p.f[i] += 1e4 * overlap * s; p.f[j] -= 1e4 * overlap * s; }
+        if (overlap > 0) {
+            double s = p.z[i] > p.z[j] ? 1 : -1;
+            p.f[i] += 1e4 * overlap * s; p.f[j] -= 1e4 * overlap * s;
+        }
     }
     for (size_t k = 0; k < p.z.size(); ++k) if (p.z[k] < 0) p.f[k] += -1e4 * p.z[k];
     SLOWDOWN

@@ -81,7 +81,8 @@ def test_bisect_slower_names_the_engine_phase_with_the_planted_busy_loop(tmp_pat
     anchor = '        sim.timing["output"] += time.perf_counter() - t0\n'
     assert anchor in text, "the output timer line moved: update the planted change"
     # 20 ms of busy waiting in every output (thermo rows, dumps): the output phase of the step loop
-    busy = "        spin_until = time.perf_counter() + 0.02\n        while time.perf_counter() < spin_until:\n            pass\n"
+    busy = ("        spin_until = time.perf_counter() + 0.02\n"
+            "        while time.perf_counter() < spin_until:\n            pass\n")
     commit_files(repo, {"NOTES.txt": "unrelated\n"}, "docs only")
     slow = commit_files(repo, {"engine/output.py": text.replace(anchor, busy + anchor, 1)}, "wait in every output")
     commit_files(repo, {"NOTES.txt": "unrelated again\n"}, "docs only again")
