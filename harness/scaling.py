@@ -221,7 +221,8 @@ def _cell(value, spec: str) -> str:
 
 def history(target_id: int, machine_id: int) -> dict[str, list[dict]]:
     """Per study (``testcase/name``) the figures at the most cores over the target's builds by commit date:
-    ``[{"build", "commit", "committed_at", "cores", "speedup", "efficiency", "serial_fraction"}]``.
+    ``[{"build", "commit", "committed_at", "cores", "speedup", "efficiency", "serial_fraction", "worse"}]``
+    (``worse``: ``mark_worse``).
 
     A revision that scales worse shows as a drop of efficiency even when its one-core time holds.
     Three queries whatever the number of builds: the builds, their scaling runs, nothing per build.
@@ -254,4 +255,21 @@ def history(target_id: int, machine_id: int) -> dict[str, list[dict]]:
             "serial_fraction": top.serial_fraction, "time_1": points[0].time})
     for rows in out.values():
         rows.sort(key=lambda r: (r["committed_at"] is None, r["committed_at"] or 0, r["build"]))
+        mark_worse(rows)
     return dict(sorted(out.items()))
+
+
+#: a build whose efficiency at the most cores is this fraction below the previous build's scales worse
+WORSE_BY = 0.10
+
+
+def mark_worse(rows: list[dict], worse_by: float = WORSE_BY) -> list[dict]:
+    """``history`` rows with ``worse`` set where the efficiency fell by more than ``worse_by`` (relative) against
+    the previous build at the same core count: a scaling regression, whatever the one-core time did."""
+    previous = None
+    for row in rows:
+        row["worse"] = bool(previous and previous["cores"] == row["cores"] and previous["efficiency"]
+                            and row["efficiency"] is not None
+                            and row["efficiency"] < (1 - worse_by) * previous["efficiency"])
+        previous = row
+    return rows

@@ -64,6 +64,12 @@ def run(args) -> int:
             print(format_table(scaling.format_study(study)))
             if max(p.cores for p in study.points) > cores:
                 print(f"note: this machine has {cores} cores; points beyond share them")
+            history = scaling.history(build.target_id, build.machine_id).get(study.key, [])
+            mine = next((i for i, row in enumerate(history) if row["build"] == build.pk), None)
+            if mine and history[mine]["worse"]:
+                before, now = history[mine - 1], history[mine]
+                print(f"scales worse: efficiency on {now['cores']} cores {now['efficiency']:.0%}, "
+                      f"{before['efficiency']:.0%} at {before['commit'][:10]} (the previous build)")
             out = workspace().home / "scaling" / args.machine / target.name / study.testcase
             out.mkdir(parents=True, exist_ok=True)
             data = finite({"target": target.name, "commit": build.commit, **study.as_dict()})

@@ -45,6 +45,11 @@ def test_a_failed_point_has_no_figures_and_the_others_keep_theirs():
     assert points[1].speedup is None and points[2].speedup == 2.0 and points[2].efficiency == 0.5
 
 
+def test_a_build_that_scales_worse_is_marked_against_the_previous_one():
+    rows = [{"cores": 2, "efficiency": e} for e in (0.9, 0.85, 0.7, 0.72)] + [{"cores": 4, "efficiency": 0.5}]
+    assert [r["worse"] for r in scaling.mark_worse(rows)] == [False, False, True, False, False]
+
+
 def test_scaling_block_expands_to_mpi_ranks_or_threads_with_the_weak_variable():
     entry = {"name": "bed", "script": "in.bed", "scaling": {"cores": [1, 2, 4], "kind": "weak",
                                                             "with": {"N": [1000, 2000, 4000]}}}

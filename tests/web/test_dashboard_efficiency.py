@@ -73,9 +73,12 @@ class EfficiencyPagesTest(TestCase):
         # current build (commit b): T(1) = 10, T(2) = 8: S = 1.25, E = 62 %, e = (1/1.25 - 1/2)/(1/2) = 0.6
         self.assertEqual(cells[8:13], ["2", "8.0000", "1.250", "62 %", "0.600"])
         history = html.split("scaling-history")[1].split("</table>")[0]
-        rows = re.findall(r"<code>(\w+)</code>.*?<td class=\"num\">(\d+) %</td>", history, re.S)
+        rows = re.findall(r"<code>(\w+)</code>.*?<td class=\"num\">(\d+) %", history, re.S)
         # commit a: S = 10/5.5 = 1.818, E = 91 %; commit b scales worse at the same one-core time
         self.assertEqual(rows, [("a" * 10, "91"), ("b" * 10, "62")])
+        # 62 % after 91 %: more than 10 % worse, at the same one-core time
+        self.assertEqual(history.count("scales worse</span>"), 1)
+        self.assertLess(history.index("b" * 10), history.index("scales worse</span>"))
 
     def test_scaling_plots_and_one_revisions_studies(self):
         current = self.builds[1]
