@@ -113,9 +113,17 @@ def breakdown_history(request, target_id, testcase):
         members = groups.setdefault(run.name, [])
         if len(members) < BREAKDOWN_COMMITS:
             members.append(run)
+    shown = []
+    for name, members in sorted(groups.items()):
+        rows = breakdown_rows(members[::-1])
+        previous = None
+        for row in rows:  # a profiled run links to the differential flame graph against the previous profiled one
+            row["diff_url"] = (reverse("profile-diff") + f"?run={previous.pk},{row['run'].pk}"
+                               if previous is not None and row["run"].profile else None)
+            previous = row["run"] if row["run"].profile else previous
+        shown.append((name, rows))
     return render(request, "webfrontend/breakdown.html", {
-        "target": target, "testcase": case, "machine_id": machine_id or "",
-        "groups": [(name, breakdown_rows(members[::-1])) for name, members in sorted(groups.items())],
+        "target": target, "testcase": case, "machine_id": machine_id or "", "groups": shown,
         "sections": list(SECTION_COLORS.items()), "limit": BREAKDOWN_COMMITS})
 
 

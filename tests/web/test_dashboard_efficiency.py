@@ -105,6 +105,7 @@ class EfficiencyPagesTest(TestCase):
         self.assertEqual(widths[1], 100.0)
         self.assertIn('title="pair: 3.0000 s"', serial)
         self.assertIn(f'href="/runs/{self.profiled[1].pk}/profile/"', serial)
+        self.assertIn(f'href="/profiles/diff/?run={self.profiled[0].pk},{self.profiled[1].pk}"', serial)
         history = self.client.get(f"/history/{self.target.pk}/{self.case.path}/").content.decode()
         self.assertIn(f'href="/breakdown/{self.target.pk}/{self.case.path}/"', history)
 
