@@ -90,8 +90,12 @@ def enable(spec: dict, adapter, value) -> None:
     code, its phase timers for the bundled engine (``EngineAdapter.profiler``)."""
     options = settings(value if value not in (None, False) else True)
     spec["profile"] = {"profiler": adapter.profiler, **options}
-    if adapter.profiler == "perf" and spec.get("command"):
-        spec["command"] = perf_command(spec["command"], options)
+    if adapter.profiler == "perf":
+        problem = perf_available()
+        if problem:  # the run runs unprofiled and says why (finish), rather than failing to start
+            spec["profile"]["problem"] = problem
+        elif spec.get("command"):
+            spec["command"] = perf_command(spec["command"], options)
 
 
 def finish(spec: dict, folder: Path, record: dict) -> None:
@@ -99,6 +103,9 @@ def finish(spec: dict, folder: Path, record: dict) -> None:
     A profile that cannot be made is a warning of the run, never its failure."""
     how = (spec.get("profile") or {}).get("profiler")
     if not how:
+        return
+    if spec["profile"].get("problem"):
+        record.setdefault("warnings", []).append(f"WARNING: no profile: {spec['profile']['problem']}")
         return
     try:
         if how == "perf":
