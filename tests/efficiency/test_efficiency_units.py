@@ -160,3 +160,19 @@ def test_breakdown_diff_names_the_section_that_grew_and_its_part_of_the_growth()
     assert rows[0]["section"] == "output" and rows[0]["delta"] == pytest.approx(1.0)
     assert rows[0]["of_growth"] == pytest.approx(1.0) and rows[-1]["section"] == "other"
     assert bd.from_timing({}) == {}
+
+
+def test_without_perf_a_profiled_run_runs_unprofiled_and_says_why(monkeypatch, tmp_path):
+    from harness.adapters import get_adapter
+
+    spec = {"command": ["liggghts", "-in", "in.x"]}
+    profiles.enable(spec, get_adapter("liggghts"), True)
+    assert spec["command"][:5] == ["perf", "record", "-g", "--call-graph", "dwarf"]
+    monkeypatch.setattr(profiles.shutil, "which", lambda name: None)  # a machine without linux-perf
+    spec = {"command": ["liggghts", "-in", "in.x"]}
+    profiles.enable(spec, get_adapter("liggghts"), {"call_graph": "fp"})
+    assert spec["command"] == ["liggghts", "-in", "in.x"]
+    record: dict = {"warnings": []}
+    profiles.finish(spec, tmp_path, record)
+    assert record["warnings"] == ["WARNING: no profile: perf is not installed (Debian: linux-perf)"]
+    assert "profile" not in record
