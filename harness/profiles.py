@@ -1,8 +1,9 @@
 """Sampling profiles of runs as folded stacks, and what grew between two of them (thesis ch. 7.3-7.4).
 
 A profiled run (``harness run --profile``, or ``"profile": true`` in its run.config entry) of a native code is
-started under ``perf record -g`` (Linux perf: samples of the call stack, by default 999 per second, of the code
-and every process it starts, so all MPI ranks under ``mpirun``); afterwards ``perf script`` prints the samples
+started under ``perf record -g`` (Linux perf: samples of the call stack, by default 249 per second, of the code
+and every process it starts, so all MPI ranks under ``mpirun``; callers found by DWARF unwinding, see
+``CALL_GRAPHS``); afterwards ``perf script`` prints the samples
 and :func:`fold_perf_script` folds them into the *folded stacks* format of Brendan Gregg's flame graphs, one
 line per distinct stack, root first, with its sample count::
 
