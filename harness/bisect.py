@@ -50,13 +50,13 @@ def judge(comparison: Comparison, slower: float | None) -> tuple[str, str]:
 
 
 def bisect(target, good: str, bad: str, machine: str, pattern: str | None = None, slower: float | None = None,
-           jobs: int = 1, say=print) -> BisectResult:
+           jobs: int = 1, say=print, profile: bool = False) -> BisectResult:
     repo = gitrepo.open_repository(target.repository)
     good_commit, bad_commit = gitrepo.resolve(repo, good).hexsha, gitrepo.resolve(repo, bad).hexsha
     commits = repo.git.rev_list("--reverse", f"{good_commit}..{bad_commit}").split()
     if not commits:
         raise UserError(f"bisect: no commits between {good} and {bad} ({bad} is not a descendant of {good})")
-    options = RunOptions(machine=machine, pattern=pattern, jobs=jobs)
+    options = RunOptions(machine=machine, pattern=pattern, jobs=jobs, profile=profile)
     say(f"bisect {target.name}: {len(commits)} commits after {good_commit[:10]} up to {bad_commit[:10]}, "
         f"about {max(1, (len(commits)).bit_length())} builds")
     good_build = _run(target, good_commit, options, say)

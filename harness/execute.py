@@ -359,6 +359,14 @@ def execute(spec: dict) -> dict:
     record["warning_count"] = len(scan.warnings)
     record["warnings"] = scan.warnings[:50]
     record["stepping_time"] = runrecord.stepping_time_of(record["timing"])
+    try:
+        record["breakdown"] = adapter.read_breakdown(folder, record["timing"])
+    except UserError:
+        record["breakdown"] = {}
+    if spec.get("profile"):
+        from harness import profiles
+
+        profiles.finish(spec, folder, record)
     _classify(record, code, timed_out, scan, float(spec.get("timeout") or 600))
     if missing and record["state"] != "failed":
         fail(record, "missing_output", missing)

@@ -133,3 +133,28 @@ def _remove(path: Path, bucket: list, out: Collection, ws, dry_run: bool) -> Non
     bucket.append(path)
     if not dry_run:
         ws.remove_tree(path)
+
+
+def collect_profiles(dry_run: bool = False, machine: str | None = None) -> Collection:
+    """Remove (or list) the raw samples (``perf.data``, ``harness.profiles``) of profiled runs that are not of
+    a current build; their folded stacks (``profile.folded``, small) stay as long as the run folder does.
+
+    Raw samples are what ``perf report`` needs and can be hundreds of MB; only the current build's are kept.
+    Returned in ``run_folders``: the perf.data files removed.
+    """
+    from harness.models import Run
+    from harness.profiles import PERF_DATA
+
+    ws = workspace()
+    out = Collection()
+    runs = Run.objects.exclude(profile="").exclude(folder="").filter(build__current=False)
+    if machine:
+        runs = runs.filter(machine__name=machine)
+    for folder in runs.values_list("folder", flat=True).order_by("pk"):
+        path = Path(folder) / PERF_DATA
+        if path.is_file() and ws.contains(path):
+            out.bytes += path.stat().st_size
+            out.run_folders.append(path)
+            if not dry_run:
+                ws.remove_tree(path)
+    return out

@@ -152,6 +152,13 @@ class Run(models.Model):
                                       help_text="s, the engine's own time stepping (its loop time: no start-up, "
                                                 "no JIT compilation); what speed trends and comparisons use")
     timing = models.JSONField(default=dict, help_text="s per category: pair, neigh, comm, modify, output, other, total")
+    breakdown = models.JSONField(default=dict, blank=True,
+                                 help_text="the timing breakdown in the harness' sections, s with min/avg/max over "
+                                           "ranks where the code prints them, ranks and load imbalance "
+                                           "(harness.breakdown)")
+    profile = models.CharField(max_length=200, blank=True, default="",
+                               help_text="the run's sampling profile as folded stacks, a file in its run folder "
+                                         "(harness.profiles); blank: not profiled")
     warning_count = models.IntegerField(default=0)
     consistency = models.CharField(max_length=16, choices=Consistency.choices, blank=True, default="")
     consistency_min = models.FloatField(null=True, blank=True, help_text="lowest C over all quantities")

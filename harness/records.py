@@ -14,6 +14,7 @@ from datetime import datetime
 from pathlib import Path
 
 from harness import runrecord
+from harness.breakdown import from_timing as breakdown_from_timing
 from harness.adapters.base import UserError
 from harness.rules import SUCCESS_STATES
 from harness.runrecord import RECORD_FILE, finite
@@ -81,7 +82,10 @@ def _store(record: dict, imported: bool, only_new: bool):
             exit_code=record.get("exit_code"), started=_when(record.get("started")),
             finished=_when(record.get("finished")), wall_time=record.get("wall_time"),
             stepping_time=record.get("stepping_time", runrecord.stepping_time_of(record.get("timing"))),
-            timing=record.get("timing") or {}, warning_count=record.get("warning_count", 0),
+            # a record written before breakdowns existed: its timing's sections (as migration 0005 fills them)
+            timing=record.get("timing") or {},
+            breakdown=record.get("breakdown") or breakdown_from_timing(record.get("timing") or {}),
+            profile=record.get("profile") or "", warning_count=record.get("warning_count", 0),
             consistency="", consistency_min=None, reference_run=None, replaced=False)
         run, _ = Run.objects.update_or_create(machine=machine, build=build, testcase=testcase,
                                               name=record["run"], testcase_hash=content, defaults=fields)

@@ -24,6 +24,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from harness import execute as ex
+from harness import scaling
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
 from harness.builds import build_target
@@ -43,6 +44,7 @@ class RunOptions:
     working_tree: bool = False
     scheduler: str | None = None
     force_build: bool = False
+    profile: bool = False              # record a profile of every run (harness.profiles)
 
 
 @dataclass
@@ -130,7 +132,8 @@ def make_spec(target: TargetDefinition, build_info: dict, adapter, machine: str,
         "machine": machine, "target": target.name, "target_definition": target.as_dict(),
         "build": build_info, "testcase": testcase.path, "run": entry.name, "testcase_hash": content,
         "config": config, "adapter": adapter.name, "thermo_columns": mapping,
-        "environment": build_info["environment"], "workspace": str(workspace().home),
+        "environment": {**build_info["environment"], **scaling.thread_environment(config)},
+        "workspace": str(workspace().home),
         "folder": str(run_folder(machine, target.name, build_info["key"], testcase.path, entry.name, content)),
         "source_folder": str(testcase.folder), "files": testcase.files(), "timeout": entry.timeout,
         "command": [],
@@ -149,7 +152,7 @@ def _needs_run(existing, options: RunOptions) -> bool:
         return True
     if state == "failed":
         return options.rerun_failed or existing.failure_reason in ("interrupted", "dependency")
-    return False
+    return options.profile and not existing.profile  # --profile: a run recorded without one runs again
 
 
 def _build_in_use(target: TargetDefinition, options: RunOptions, report: RunReport, say):
@@ -194,6 +197,10 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
         if key in tasks:
             return
         spec = make_spec(target, info, adapter, options.machine, testcase, entry)
+        if (options.profile or entry.config.get("profile")) and not entry.problems:
+            from harness import profiles
+
+            profiles.enable(spec, adapter, entry.config.get("profile"))
         previous = existing.get((testcase.path, entry.name, spec["testcase_hash"]))
         if entry.problems:
             report.problems.extend(entry.problems)

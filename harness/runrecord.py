@@ -31,7 +31,8 @@ class RunRecord:
     """One run. Times are ISO 8601 strings (UTC); ``wall_time`` in s (engine process, start-up and JIT
     compilation included); ``stepping_time`` in s (the engine's own loop time, ``stepping_time_of``);
     ``timing`` in s per category (pair, neigh, comm, modify, output, other, total, and what the engine
-    adds)."""
+    adds); ``breakdown`` the same in the harness' sections with min/avg/max over ranks (``harness.breakdown``);
+    ``profile`` the folded-stacks file of a profiled run, relative to its folder (``harness.profiles``)."""
 
     machine: str
     target: str
@@ -53,6 +54,8 @@ class RunRecord:
     wall_time: float | None = None
     stepping_time: float | None = None
     timing: dict = field(default_factory=dict)
+    breakdown: dict = field(default_factory=dict)
+    profile: str = ""
     warning_count: int = 0
     warnings: list = field(default_factory=list)
     series: list = field(default_factory=list)

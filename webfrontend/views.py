@@ -36,8 +36,8 @@ BUILD_CHOICE_LIMIT = 500
 LIST_PAGE_SIZE = settings.DASHBOARD_LIST_PAGE_SIZE
 MODES = ("state", "consistency")
 #: fields of a run (and its build) no run list shows: left in the database, whatever their size
-LIST_DEFERRED = ("config", "command", "timing", "failure_message", "folder", "build__log", "build__commit_message",
-                 "build__environment", "build__executable")
+LIST_DEFERRED = ("config", "command", "timing", "breakdown", "failure_message", "folder", "build__log",
+                 "build__commit_message", "build__environment", "build__executable")
 
 
 def _current(queryset):

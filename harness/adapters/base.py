@@ -60,6 +60,11 @@ class EngineAdapter:
     required_thermo = ("step", "atoms", "ke", "rke")
     #: harness name -> the code's own thermo column name, used when neither target nor run.config maps it
     default_thermo_columns: dict[str, str] = {}
+    #: how a scaling study (``harness.scaling``) gives this code more cores: "mpi" ranks or "threads"
+    parallelism = "mpi"
+    #: how ``harness run --profile`` samples it: "perf" (``perf record -g`` of a native program) or "phases"
+    #: (the code's own phase timers, for an interpreted program whose native stacks say nothing)
+    profiler = "perf"
 
     def accepts_script(self, script: str) -> bool:
         """Whether a run.config's plain ``script`` (not a per-adapter object) is for this code.
@@ -127,6 +132,14 @@ class EngineAdapter:
     def read_timing(self, folder: Path) -> dict[str, float]:
         """Timing breakdown in s: pair, neigh, comm, modify, output, other, total (missing ones 0)."""
         raise NotImplementedError
+
+    def read_breakdown(self, folder: Path, timing: dict | None = None) -> dict:
+        """The timing breakdown in the harness' sections (``harness.breakdown``): pair, neighbor, communication,
+        modify, output, other, with min/avg/max over ranks where the code prints them. By default the
+        sections of ``read_timing`` (averages only); codes that print more override it."""
+        from harness.breakdown import from_timing
+
+        return from_timing(self.read_timing(folder) if timing is None else timing)
 
     def scan_log(self, folder: Path) -> LogScan:
         raise NotImplementedError

@@ -53,6 +53,9 @@ def apply_mapping(frame: pd.DataFrame, mapping: dict[str, str] | None, required,
 @register
 class DemAdapter(EngineAdapter):
     name = "dem"
+    #: more cores are more Numba threads (NUMBA_NUM_THREADS); its profile is its own phase timers (engine/runner.py)
+    parallelism = "threads"
+    profiler = "phases"
     thermo_file = "thermo.csv"
     timing_file = "timing.json"
 
