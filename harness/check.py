@@ -21,8 +21,7 @@ from harness import junit
 from harness.adapters.base import UserError
 from harness.junit import provenance  # noqa: F401  (what a verdict was computed on; the dashboard shows it)
 from harness.builds import current_build
-from harness.coverage import covered_runs, earlier_content_run, record_selection
-from harness.testcases import CONFIG_RUN, matches
+from harness.coverage import covered_runs, earlier_content_run, record_selection, selected
 from harness.consistency import FAILING_LEVELS, QuantityResult, compare_runs, run_level
 from harness.rules import find_reference_run, override_keys, stale_reference
 
@@ -155,8 +154,7 @@ def check_targets(targets, machine: str, pattern: str | None = None, allow_missi
             continue
         record_selection(target, build, machine, pattern)
         every = list(covered_runs(build=build, machine=machine))
-        runs = [run for run in every if matches(pattern, run.testcase.path, run.name)
-                or (run.name == CONFIG_RUN and matches(pattern, run.testcase.path, ""))]
+        runs = [run for run in every if selected(pattern, run.testcase.path, run.name)]
         if not every:
             report.problems.append(f"target {target.name!r}: no runs of its current build {build.commit[:12]} "
                                    f"on machine {machine!r} (run 'harness run {target.name}')")

@@ -34,12 +34,20 @@ class Selection:
     problems: list[str] = field(default_factory=list)
 
 
+def selected(pattern: str | None, path: str, name: str) -> bool:
+    """Whether ``-k pattern`` selects run ``name`` of test case ``path``; a broken run.config (the pseudo run
+    ``run.config``) is selected by its test case path, as ``harness run`` plans it."""
+    from harness.testcases import CONFIG_RUN, matches
+
+    return matches(pattern, path, name) or (name == CONFIG_RUN and matches(pattern, path, ""))
+
+
 def selection(target, pattern: str | None = None, working_tree: bool = False, discovered=None):
     """The run configurations ``target`` selects now (None: its test cases cannot be read); ``discovered``:
     the (test cases, problems) of ``harness.testcases.discover`` when the caller has them already."""
     from harness.adapters import get_adapter
     from harness.adapters.base import UserError
-    from harness.testcases import CONFIG_RUN, discover, matches
+    from harness.testcases import discover
 
     if discovered is None:
         try:
@@ -51,8 +59,7 @@ def selection(target, pattern: str | None = None, working_tree: bool = False, di
     specs = []
     for testcase in testcases:
         for entry in testcase.runs:
-            if not (matches(pattern, testcase.path, entry.name)
-                    or (entry.name == CONFIG_RUN and matches(pattern, testcase.path, ""))):
+            if not selected(pattern, testcase.path, entry.name):
                 continue
             key = (testcase.path, entry.name)
             chosen.content[key] = testcase.content_hash(entry.name)
@@ -75,7 +82,6 @@ def record_selection(target, build, machine: str, pattern: str | None = None, wo
     from harness.models import Run
     from harness.records import store_record
     from harness.runner import _build_info, make_spec
-    from harness.testcases import matches
 
     chosen, specs = selection(target, pattern, working_tree, discovered)
     if chosen is None:
@@ -104,7 +110,7 @@ def record_selection(target, build, machine: str, pattern: str | None = None, wo
             store_record(record, only_new=missing is None)
     # rows of run configurations the test cases no longer hold (within the selection's pattern)
     for (path, name, _content), row in live.items():
-        if (path, name) not in chosen.content and matches(pattern, path, name):
+        if (path, name) not in chosen.content and selected(pattern, path, name):
             Run.objects.filter(pk=row.pk).update(state=Run.State.OUTDATED, replaced=True)
     return chosen
 

@@ -30,7 +30,7 @@ from harness.adapters.base import UserError
 from harness.builds import build_target
 from harness.rules import SUCCESS_STATES, effective_state
 from harness.targets import TargetDefinition
-from harness.testcases import CONFIG_RUN, RunEntry, TestCaseSpec, discover, matches
+from harness.testcases import RunEntry, TestCaseSpec, discover
 from harness.workspace import workspace
 
 
@@ -176,7 +176,7 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
     """Build the target, discover its test cases and choose the runs to execute."""
     from harness.models import Run
 
-    from harness.coverage import record_selection
+    from harness.coverage import record_selection, selected
 
     build = _build_in_use(target, options, report, say)
     adapter = get_adapter(target.engine)
@@ -226,8 +226,7 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
 
     for testcase in testcases:
         for entry in testcase.runs:
-            if matches(options.pattern, testcase.path, entry.name) or (
-                    entry.name == CONFIG_RUN and matches(options.pattern, testcase.path, "")):
+            if selected(options.pattern, testcase.path, entry.name):
                 add(testcase, entry)
     return list(tasks.values())
 

@@ -28,9 +28,9 @@ def has_reference_target(run) -> bool:
     return run.target.reference_id is not None
 
 
-def stored_verdict(run) -> RunVerdict:
+def stored_verdict(run, allow_missing: bool = False) -> RunVerdict:
     """What ``harness check`` said (or would say) of ``run``, from the stored results and overrides."""
-    verdict = verdict_of(run, stored_results(run), has_reference_target(run))
+    verdict = verdict_of(run, stored_results(run), has_reference_target(run), allow_missing)
     if (verdict.status == "passed" and not verdict.message and has_reference_target(run)
             and run.state == "post_processed" and not run.consistency):
         verdict.message = NOT_CHECKED
@@ -43,10 +43,11 @@ def current_runs(machine_id: int | None = None, target_id: int | None = None):
     return covered_runs(machine_id=machine_id, target_id=target_id)
 
 
-def stored_report(runs) -> CheckReport:
-    return CheckReport(verdicts=[stored_verdict(run) for run in runs])
+def stored_report(runs, allow_missing: bool = False) -> CheckReport:
+    return CheckReport(verdicts=[stored_verdict(run, allow_missing) for run in runs])
 
 
-def stored_junit_xml(runs) -> str:
-    """JUnit XML of ``runs`` (e.g. ``current_runs(machine, target)``) by harness.check's writer."""
-    return junit_xml(stored_report(runs))
+def stored_junit_xml(runs, allow_missing: bool = False) -> str:
+    """JUnit XML of ``runs`` (e.g. ``current_runs(machine, target)``) by harness.check's writer;
+    ``allow_missing`` as ``harness check --allow-missing``."""
+    return junit_xml(stored_report(runs, allow_missing))

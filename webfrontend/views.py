@@ -404,7 +404,10 @@ def junit(request):
                 "(as 'harness check' writes it); name one", links=[
                     (m.name, reverse("junit") + "?" + urlencode({"machine": m.pk, **query})) for m in machines])
         machine = machines[0].pk if machines else None
-    response = HttpResponse(stored_junit_xml(current_runs(machine, target)), content_type="application/xml")
+    # ?allow_missing=1: runs not executed are skipped, as `harness check --allow-missing` writes them
+    allow_missing = params.choice(request.GET, "allow_missing", ("0", "1"), "0") == "1"
+    response = HttpResponse(stored_junit_xml(current_runs(machine, target), allow_missing),
+                            content_type="application/xml")
     response["Content-Disposition"] = 'attachment; filename="junit.xml"'
     return response
 

@@ -20,7 +20,7 @@ django.setup()
 from django.test import Client
 from harness.models import Machine, Target
 client = Client()
-query = {"machine": Machine.objects.get(name="m1").pk, "target": Target.objects.get(name="solo").pk}
+query = {"machine": Machine.objects.get(name="m1").pk, "target": Target.objects.get(name="solo").pk, **EXTRA}
 response = client.get("/junit.xml", query)
 assert response.status_code == 200, response.status_code
 print(json.dumps(response.content.decode()))
@@ -33,9 +33,10 @@ def _env(project, **extra) -> dict:
     return env
 
 
-def dashboard_junit(project) -> str:
-    done = subprocess.run([sys.executable, "-c", DASHBOARD_JUNIT], cwd=ROOT, capture_output=True, text=True,
-                          timeout=300, env=_env(project, DJANGO_SETTINGS_MODULE="webfrontend.settings"))
+def dashboard_junit(project, **extra) -> str:
+    done = subprocess.run([sys.executable, "-c", f"EXTRA = {extra!r}\n" + DASHBOARD_JUNIT], cwd=ROOT,
+                          capture_output=True, text=True, timeout=300,
+                          env=_env(project, DJANGO_SETTINGS_MODULE="webfrontend.settings"))
     assert done.returncode == 0, done.stdout + done.stderr
     return json.loads(done.stdout)
 
@@ -90,7 +91,11 @@ def test_killed_run_and_broken_configs_fail_the_gate_and_both_junits_agree(tmp_p
     assert "passed" not in {status for status, _ in verdicts.values()}
     assert dashboard_junit(project) == cli
 
-    # --allow-missing: runs not executed are skipped, broken configurations still fail
+    # --allow-missing: runs not executed are skipped, broken configurations still fail; the dashboard agrees
+    allowed_xml = tmp_path / "allowed.xml"
+    assert harness(project, "check", "solo", "--allow-missing", "--junit", str(allowed_xml)).returncode == 1
+    assert dashboard_junit(project, allow_missing="1") == allowed_xml.read_text()
+    assert _cases(allowed_xml.read_text())["solo.cases.half/good"] == ("skipped", "")
     allowed = harness(project, "check", "solo", "--allow-missing", "--json")
     assert allowed.returncode == 1
     statuses = {(v["testcase"], v["run"]): v["status"] for v in json.loads(allowed.stdout)}
