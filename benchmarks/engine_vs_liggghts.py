@@ -58,7 +58,7 @@ def run_liggghts(folder: Path, variables: dict, grid: tuple[int, int, int]) -> f
                                  "processors      {} {} {}\nregion          domain block".format(*grid), 1)
     (folder / "in.settling").write_text(script)
     ranks = grid[0] * grid[1] * grid[2]
-    cmd = [LIGGGHTS, "-in", "in.settling", "-log", "log.liggghts", "-echo", "none", "-screen", "none"]
+    cmd = [LIGGGHTS, "-in", "in.settling", "-log", "log.liggghts", "-echo", "none"]  # -screen none crashes 3.8
     for k, v in variables.items():
         cmd += ["-var", k, str(v)]
     if ranks > 1:

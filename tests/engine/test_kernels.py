@@ -61,11 +61,13 @@ def test_parameter_table_leaves_pairs_without_interaction_nan():
 
 
 def test_the_generated_loops_are_parallel_and_thread_safe_by_construction():
-    """On several threads only the two force passes and the drift are parallel loops and no loop body writes
-    another particle's force (the partner's share goes to its pair row)."""
+    """On several threads only the two force passes, the drift and (with planes) the plane bits are parallel
+    loops and no loop body writes another particle's force (the partner's share goes to its pair row)."""
     combination = Combination(normal="hertz", tangential="history", rolling="cdt", planes=True, parallel=True)
     source = generate_source(combination)
-    assert source.count("in prange(") == 3 and source.count("parallel=PARALLEL") == 3
+    assert source.count("in prange(") == 4 and source.count("parallel=PARALLEL") == 4
+    without_planes = generate_source(dataclasses.replace(combination, planes=False))
+    assert without_planes.count("in prange(") == 3 and "def plane_reach" not in without_planes
     # one thread: the former serial loop, the partner's force added at once (the same sums in the same order)
     serial = generate_source(dataclasses.replace(combination, parallel=False))
     assert "parallel=PARALLEL" not in serial and "f[j, 0] -= fx" in serial and "reaction[q" not in serial
