@@ -84,7 +84,8 @@ def main():
     parser.add_argument("--steps", type=int, default=30000)
     parser.add_argument("--repeat", type=int, default=1)
     parser.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="engine thread counts")
-    parser.add_argument("--grids", nargs="*", default=["2x1x1"], help="LIGGGHTS processor grids besides 1x1x1 (none: serial only)")
+    parser.add_argument("--grids", nargs="*", default=["2x1x1"],
+                        help="LIGGGHTS processor grids besides 1x1x1 (none: serial only)")
     parser.add_argument("--engine", type=Path, default=REPO, help="folder holding engine/ (default: this checkout)")
     args = parser.parse_args()
     variables = scene_variables(args.particles, args.steps)
