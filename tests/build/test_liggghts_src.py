@@ -100,5 +100,6 @@ def test_release_3_8_0_builds_with_its_patches(project):
 def _version_banner(binary: Path) -> str:
     import subprocess
 
-    result = subprocess.run([str(binary), "-h"], capture_output=True, text=True, timeout=60)
+    # in the build folder: LIGGGHTS writes log.liggghts where it runs
+    result = subprocess.run([str(binary), "-h"], capture_output=True, text=True, timeout=60, cwd=binary.parent)
     return result.stdout + result.stderr
