@@ -35,5 +35,7 @@ def store(django_store, tmp_path, monkeypatch):
 @pytest.fixture(scope="session")
 def shared_ccache(tmp_path_factory):
     """One ccache folder for every slow LIGGGHTS build of the session: the second build of a commit next to
-    a built one (or of the same commit in another workspace) compiles only what changed."""
-    return tmp_path_factory.mktemp("ccache")
+    a built one (or of the same commit in another workspace) compiles only what changed.
+    ``HARNESS_TEST_CCACHE`` names a folder kept between sessions (a CI cache) instead of a fresh one."""
+    kept = os.environ.get("HARNESS_TEST_CCACHE")
+    return kept if kept else tmp_path_factory.mktemp("ccache")
