@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from django.db import models
-from django.db.models import Count, Exists, Min, OuterRef, Q, Sum, Value
+from django.db.models import Count, Exists, Max, Min, OuterRef, Q, Sum, Value
 from django.db.models.functions import Concat
 
 from harness.rules import CONSISTENT_LEVELS, OVERRIDE_SEPARATORS, SUCCESS_STATES, find_reference_run
@@ -18,6 +18,8 @@ from harness.rules import CONSISTENT_LEVELS, OVERRIDE_SEPARATORS, SUCCESS_STATES
 #: outcome categories of the two overview modes, in display order
 STATE_CATEGORIES = ("successful", "failed", "not_executed", "outdated")
 CONSISTENCY_CATEGORIES = ("consistent", "inconsistent", "not_checked")
+#: what ``harness check`` says of a run (harness.check.verdict_of): passed, failed, or not run (skipped)
+VERDICT_CATEGORIES = ("passed", "failed", "not_run")
 
 
 def state_category(state: str) -> str:
@@ -36,6 +38,18 @@ def consistency_category(consistency: str, accepted: bool) -> str:
     if consistency == "inconsistent":
         return "consistent" if accepted else "inconsistent"
     return "not_checked"
+
+
+def verdict_category(state: str, consistency: str, accepted: bool) -> str:
+    """What ``harness check`` says of a stored run, from the columns an aggregation keeps: a failed run fails
+    and an inconsistent one fails unless a reviewer overruled it (``accepted_expression``); a run never
+    executed or outdated is skipped ("not run"); every other run passed. The same rules as
+    harness.check.verdict_of (tests/web/test_dashboard_overview.py holds the two against each other)."""
+    if state in ("not_executed", "outdated"):
+        return "not_run"
+    if (state == "failed" or consistency == "inconsistent") and not accepted:
+        return "failed"
+    return "passed"
 
 
 def accepted_expression():
@@ -77,6 +91,10 @@ class Tally:
     run_time: float = 0.0
     lowest_c: float | None = None
     accepted: int = 0
+    #: runs per harness check verdict (VERDICT_CATEGORIES)
+    verdicts: dict = field(default_factory=dict)
+    #: when the latest of the runs started (None: none started)
+    last_started: object = None
 
     @property
     def total(self) -> int:
@@ -91,6 +109,10 @@ class Tally:
         self.run_time += row["time"] or 0.0
         if row["accepted"]:
             self.accepted += n
+        verdict = verdict_category(row["state"], row["consistency"], row["accepted"])
+        self.verdicts[verdict] = self.verdicts.get(verdict, 0) + n
+        if row.get("last") is not None and (self.last_started is None or row["last"] > self.last_started):
+            self.last_started = row["last"]
         if row["cmin"] is not None and (self.lowest_c is None or row["cmin"] < self.lowest_c):
             self.lowest_c = row["cmin"]
 
@@ -105,6 +127,14 @@ class Tally:
         if self.total and share >= 1.0:
             return "green"
         return "red" if share < 0.25 else "blue"
+
+    @property
+    def verdict(self) -> str:
+        """The verdict of all these runs as ``harness check`` gives it: failed when any run failed, passed when
+        any passed and none failed, not run when none ran."""
+        if self.verdicts.get("failed"):
+            return "failed"
+        return "passed" if self.verdicts.get("passed") else "not_run"
 
     def matches(self, category: str | None) -> bool:
         """Whether this entry holds runs of the filtered category (no filter: always)."""
@@ -150,6 +180,61 @@ def fold_into_children(rows, prefix: str) -> tuple[list[Tally], Tally]:
     return [children[k] for k in sorted(children)], whole
 
 
+def previous_builds(builds) -> dict:
+    """For each of ``builds``: the build of its target on its machine just before it by commit date (then
+    start), or None - the order of history (``RunQuerySet.history``). One query."""
+    from harness.models import Build
+
+    builds = list(builds)
+    order = ("committed_at", "started", "id")
+    earlier: dict = {}
+    for b in (Build.objects.filter(target_id__in={b.target_id for b in builds},
+                                   machine_id__in={b.machine_id for b in builds})
+              .exclude(committed_at=None).only("id", "target_id", "machine_id", "commit", "committed_at", "started")):
+        earlier.setdefault((b.target_id, b.machine_id), []).append(b)
+
+    def key(b):
+        return tuple((getattr(b, f) is None, getattr(b, f)) for f in order)
+
+    out = {}
+    for build in builds:
+        if build.committed_at is None:
+            out[build.pk] = None
+            continue
+        before = [b for b in earlier.get((build.target_id, build.machine_id), []) if key(b) < key(build)]
+        out[build.pk] = max(before, key=key) if before else None
+    return out
+
+
+def stepping_changes(builds) -> dict:
+    """Stepping time of each of ``builds`` against the build before it (``previous_builds``).
+
+    The runs of both builds are paired by test case and run name (the shortest stepping time of each, in s);
+    the change is the geometric mean of the ratios now / before over the pairs, so that a 5 ms test counts
+    as much as a 5 s one. Returns ``{build id: {"ratio", "pairs", "previous" (Build)}}`` for the builds with
+    at least one pair. Two queries.
+    """
+    from harness.models import Run
+
+    import math
+
+    previous = {pk: b for pk, b in previous_builds(builds).items() if b is not None}
+    if not previous:
+        return {}
+    times: dict = {}
+    for row in (Run.objects.filter(build_id__in=set(previous) | {b.pk for b in previous.values()},
+                                   replaced=False, stepping_time__gt=0)
+                .values("build_id", "testcase_id", "name").annotate(t=Min("stepping_time")).order_by()):
+        times.setdefault(row["build_id"], {})[(row["testcase_id"], row["name"])] = row["t"]
+    out = {}
+    for pk, before in previous.items():
+        now, then = times.get(pk, {}), times.get(before.pk, {})
+        logs = [math.log(now[k] / then[k]) for k in now.keys() & then.keys()]
+        if logs:
+            out[pk] = {"ratio": math.exp(sum(logs) / len(logs)), "pairs": len(logs), "previous": before}
+    return out
+
+
 class RunQuerySet(models.QuerySet):
     """Runs, with the aggregations the dashboard lists need."""
 
@@ -169,7 +254,7 @@ class RunQuerySet(models.QuerySet):
         """
         return (self.with_accepted()
                 .values(*group_by, "testcase__path", "state", "consistency", "accepted")
-                .annotate(n=Count("id"), time=Sum("wall_time"), cmin=Min("consistency_min"))
+                .annotate(n=Count("id"), time=Sum("wall_time"), cmin=Min("consistency_min"), last=Max("started"))
                 .order_by())
 
     def overview(self) -> list[dict]:

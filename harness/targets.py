@@ -33,6 +33,9 @@ A target is a named build of a DEM code at a git revision. Fields (all optional 
     mapping of the harness' thermo names onto the engine's column names, e.g. ``{"ke": "KinEng"}``.
 ``mpi_launcher``
     launcher prefix for mpi runs (default ``["mpirun"]``), a non-empty list of strings.
+``commit_url``
+    the repository's web view of one commit, with ``{commit}`` where the commit goes, e.g.
+    ``"https://github.com/CFDEMproject/LIGGGHTS-PUBLIC/commit/{commit}"``; the dashboard links commits there.
 
 The target's name is its file name without ``.json``; it names folders in the workspace, so it must be a
 safe single path segment (``harness.workspace.segment_problem``), as must ``reference`` and every part of
@@ -56,7 +59,7 @@ RECIPES = ("dem", "make", "system")
 KNOWN_KEYS = {
     "repository", "revision", "recipe", "source_folder", "make_target", "make_variables", "make_jobs",
     "generated_executable", "executable", "engine", "testcases", "testcases_repository", "testcases_revision",
-    "reference", "thermo_columns", "mpi_launcher", "description",
+    "reference", "thermo_columns", "mpi_launcher", "description", "commit_url",
 }
 #: fields that change the binary; the build cache is keyed by their hash and the commit
 BUILD_KEYS = ("repository", "recipe", "source_folder", "make_target", "make_variables", "generated_executable",
@@ -132,9 +135,13 @@ def parse_target(name: str, data, path: Path) -> TargetDefinition:
     for key in sorted(set(data) - KNOWN_KEYS):
         problems.add(json_path(key), f"unknown field (known: {', '.join(sorted(KNOWN_KEYS))})")
     for key in ("repository", "revision", "recipe", "source_folder", "make_target", "generated_executable",
-                "executable", "engine", "testcases_repository", "testcases_revision", "reference", "description"):
+                "executable", "engine", "testcases_repository", "testcases_revision", "reference", "description",
+                "commit_url"):
         if key in data:
             expect_type(problems, json_path(key), data[key], str, "a string")
+    if isinstance(data.get("commit_url"), str) and "{commit}" not in data["commit_url"]:
+        problems.add(json_path("commit_url"), "must hold {commit} where the commit goes, "
+                     "e.g. https://example.org/repo/commit/{commit}")
     recipe = data.get("recipe") or ("make" if "make_target" in data else "system" if "executable" in data
                                     else "dem")
     if recipe not in RECIPES:

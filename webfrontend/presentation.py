@@ -16,6 +16,29 @@ TIMING_CATEGORIES = (("pair", "#1f77b4"), ("neigh", "#ff7f0e"), ("comm", "#2ca02
 DIFF_LINE_LIMIT = 5000
 
 
+#: the order of the overview's rows: failing targets first
+VERDICT_ORDER = {"failed": 0, "not_run": 1, "passed": 2}
+
+
+def commit_link(build, commit_url: str | None) -> dict:
+    """A build's commit for a page: the short commit, its subject (first line of the message) and the
+    repository's web view of it when the target names one (``commit_url`` with ``{commit}``)."""
+    subject = (build.commit_message or "").strip().splitlines()[0] if (build.commit_message or "").strip() else ""
+    return {"short": build.commit[:10], "commit": build.commit, "subject": subject,
+            "url": commit_url.replace("{commit}", build.commit) if commit_url else None}
+
+
+#: a stepping-time change smaller than this share is not marked slower or faster (the smallest change
+#: harness.regressions.speed_changes reports)
+SPEED_MARK = 0.1
+
+
+def speed_change(ratio: float) -> dict:
+    """A stepping-time ratio (now / before) for a page: "+12 %" slower, "-8 %" faster, and which."""
+    kind = "slower" if ratio - 1.0 >= SPEED_MARK else "faster" if 1.0 - ratio >= SPEED_MARK else "same"
+    return {"text": f"{(ratio - 1.0) * 100.0:+.0f} %", "kind": kind}
+
+
 def breadcrumbs(path: str) -> list[tuple[str, str]]:
     """(name, folder path) of each level of ``a/b/c``: a, a/b, a/b/c."""
     parts = path.split("/") if path else []

@@ -20,7 +20,7 @@ from django.views.decorators.http import require_POST
 
 from harness.builds import current_build
 from harness.models import Build, ConsistencyResult, Machine, Override, Run, Series, Target, TestCase
-from harness.queries import CONSISTENCY_CATEGORIES, STATE_CATEGORIES
+from harness.queries import CONSISTENCY_CATEGORIES, STATE_CATEGORIES, stepping_changes
 from harness.verdicts import current_runs, stored_junit_xml, stored_verdict
 from webfrontend import params, plots, presentation
 from webfrontend.forms import OverrideForm
@@ -97,6 +97,9 @@ def bad_request(request, exception):
 
 
 def overview(request):
+    """One compact table per machine: a row per target (its current build), failing targets first, with the
+    verdict ``harness check`` gives, the commit, run counts, consistency, the stepping-time change against
+    the build before and when it last ran. With a search or filter, the matching runs are listed below."""
     mode, _ = _mode(request)
     selected = params.optional_id(request.GET, "machine")
     found = _filters(request)
@@ -106,21 +109,30 @@ def overview(request):
         runs, everything = runs.filter(machine_id=selected), everything.filter(machine_id=selected)
     machines = runs.overview()
     builds = {(b.machine_id, b.target_id): b for b in Build.objects.filter(current=True).only(
-        "id", "machine_id", "target_id", "revision", "commit", "committed_at")}
+        "id", "machine_id", "target_id", "revision", "commit", "committed_at", "commit_message", "started")}
+    commit_urls = {pk: (definition or {}).get("commit_url")
+                   for pk, definition in Target.objects.values_list("pk", "definition")}
+    speed = stepping_changes(builds.values())
     totals = {(row["machine_id"], row["target_id"]): row for row in everything.values(
         "machine_id", "machine__name", "target_id", "target__name").annotate(n=Count("id")).order_by()}
     for machine in machines:
         for target in machine["targets"]:
             key = (machine["machine_id"], target["target_id"])
-            target["build"] = builds.get(key)
+            target["build"] = build = builds.get(key)
             target["older"] = totals.pop(key)["n"] - target["tally"].total
+            if build is not None:
+                target["commit"] = presentation.commit_link(build, commit_urls.get(target["target_id"]))
+                target["speed"] = speed.get(build.pk)
+        machine["targets"].sort(key=lambda t: (presentation.VERDICT_ORDER[t["tally"].verdict], t["target"]))
     # targets with runs, none of them by their current build: named, so that no result silently vanishes
     uncounted = sorted(({"machine": r["machine__name"], "machine_id": r["machine_id"], "target": r["target__name"],
                          "target_id": r["target_id"], "runs": r["n"], "build": builds.get(key)}
                         for key, r in totals.items()), key=lambda u: (u["machine"], u["target"]))
+    # a search lists the runs it found, not only their counts
+    page = _with_failing_since(_page(request, _run_list(runs.listing()))) if found["filtered"] else None
     return render(request, "webfrontend/overview.html", {
-        "machines": machines, "mode": mode, "selected": selected, "uncounted": uncounted,
-        "all_machines": Machine.objects.order_by("name"), **found})
+        "machines": machines, "mode": mode, "selected": selected, "uncounted": uncounted, "page": page,
+        "all_machines": Machine.objects.order_by("name"), "show_failing_since": True, **found})
 
 
 def testcase_runs(request, testcase):

@@ -81,11 +81,13 @@ class BrowserTest(BrowserCase):
         page.goto(self.live_server_url + "/")
         assert page.locator("h2", has_text="machine ws1").is_visible()
         self.screenshot("dashboard_overview.png")
-        master = page.locator("div.target", has=page.locator("h3 a", has_text="dem-master"))
-        assert "1 failed" in master.locator("tr", has_text="contact_models/").inner_text()
+        master = page.locator("tr.target", has=page.locator("a", has_text="dem-master"))
+        assert master.locator("td").nth(0).inner_text() == "FAILED"  # upper case by the style sheet
+        assert master.locator("td").nth(4).inner_text() == "2"
 
-        # browse like a file browser: contact_models/ -> hertz/ -> impact
-        master.get_by_role("link", name="contact_models/").click()
+        # browse like a file browser: dem-master -> contact_models/ -> hertz/ -> impact
+        master.get_by_role("link", name="dem-master").click()
+        page.get_by_role("link", name="contact_models/").click()
         page.get_by_role("link", name="hertz/").click()
         page.get_by_role("link", name="impact").click()
         assert page.locator("h1").inner_text() == "Test case contact_models/hertz/impact"
@@ -119,8 +121,8 @@ class BrowserTest(BrowserCase):
     def test_consistency_view_with_bands(self):
         page, s = self.page, self.s
         page.goto(self.live_server_url + "/?mode=consistency")
-        master = page.locator("div.target", has=page.locator("h3 a", has_text="dem-master"))
-        assert "1 inconsistent" in master.locator("tr", has_text="contact_models/").inner_text()
+        master = page.locator("tr.target", has=page.locator("a", has_text="dem-master"))
+        assert "1 inconsistent" in master.locator("td").nth(6).inner_text()
         page.goto(self.live_server_url + f"/runs/{s['inconsistent'].pk}/consistency/")
         assert page.locator("table.results tr", has_text="ke").first.locator("td").nth(5).inner_text() == "1000"
         assert self.charts_drawn("#consistency-plots") == 4
