@@ -48,7 +48,7 @@ TERMS = {
                "or not run. A target fails when any of its runs fails.",
     "consistency level": "How close a run's data series came to its reference run's: perfect, good or "
                          "inconsistent (the worst quantity decides).",
-    "C": "Consistency of one quantity: C = 1 - max_k 0.1 |x_k - x_ref,k| / eps (thesis eq. 4.4); 1 is "
+    "C": "Consistency of one quantity: C = 1 - max_k 0.1 abs(x_k - x_ref,k) / eps (thesis eq. 4.4); 1 is "
          "identical, below 0.9 inconsistent.",
     "eps": "Half-width of the acceptance band around the reference trajectory: eps = 0.1 (max - min) / 2 of "
            "the reference (thesis eq. 4.2), at least a floor for flat references; run.config may set it per "
@@ -70,14 +70,17 @@ TERMS = {
     "replaced": "A run of the same build and test case whose content changed since: a newer run took its "
                 "place in counts and verdicts.",
     "words": "A text file declared under `textfiles` in run.config is compared word by word (split at white "
-             "space) with the reference run's; numbers match within max(rtol |ref|, atol).",
+             "space) with the reference run's; numbers match within max(rtol abs(ref), atol).",
     "passed": VERDICTS["passed"],
     "failed": VERDICTS["failed"],
     "not run": VERDICTS["not run"],
 }
 
-#: every word with its sentence, for tooltips
+#: every word with its sentence, for tooltips ("failed" is the verdict's sentence: the state's is in STATES)
 ALL = {**STATES, **LEVELS, **TERMS}
+#: the sections of docs/glossary.md
+SECTIONS = {"Run states": STATES, "Verdicts": VERDICTS, "Consistency levels": LEVELS,
+            "Other words": {k: v for k, v in TERMS.items() if k not in VERDICTS}}
 
 
 def define(term: str) -> str:

@@ -30,6 +30,7 @@ from harness.builds import build_target
 from harness.rules import SUCCESS_STATES, effective_state
 from harness.targets import TargetDefinition
 from harness.testcases import CONFIG_RUN, RunEntry, TestCaseSpec, discover, matches
+from harness.textout import format_table  # noqa: F401  (the commands import it from here)
 from harness.workspace import workspace
 
 
@@ -162,6 +163,9 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
     # a run is the same run only at the same test case content: an edited scene is run again
     existing = {(r.testcase.path, r.name, r.testcase_hash): r for r in
                 Run.objects.filter(machine__name=options.machine, build=build).select_related("testcase")}
+    if adapter.first_run_note and not any(r.stepping_time or r.state in SUCCESS_STATES for r in existing.values()):
+        # a new build sits silent for a while before its first run reports (the bundled engine: kernels)
+        say(f"{target.name}@{build.commit[:10]}: first runs of this build: {adapter.first_run_note}")
     tasks: dict[tuple, Task] = {}
 
     def add(testcase: TestCaseSpec, entry: RunEntry, force: bool = False) -> None:
@@ -504,9 +508,3 @@ def summary_table(records: list[dict]) -> str:
                      f"{cost:.3f}" if cost is not None else "-"))
     return format_table(rows)
 
-
-def format_table(rows: list[tuple]) -> str:
-    widths = [max(len(str(row[i])) for row in rows) for i in range(len(rows[0]))]
-    lines = ["  ".join(str(cell).ljust(width) for cell, width in zip(row, widths)).rstrip() for row in rows]
-    lines.insert(1, "  ".join("-" * w for w in widths))
-    return "\n".join(lines)
