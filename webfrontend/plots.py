@@ -99,15 +99,21 @@ def _declared_label(text: str) -> str:
     return text.replace("_", " ")
 
 
-def quantities(series) -> list[str]:
+def quantities(series, consistency: dict | None = None) -> list[str]:
     """Plottable columns of a series: numeric lists other than the abscissa, in the order the series had when
-    it was read (``meta["order"]``: PostgreSQL's jsonb keeps no key order), else in stored order."""
+    it was read (``meta["order"]``: PostgreSQL's jsonb keeps no key order), else in stored order. A thermo
+    axis column (step, time: harness.consistency.AXIS_COLUMNS) is left out unless the run configuration's
+    ``consistency`` names it, as the check does."""
+    from harness.consistency import AXIS_COLUMNS, axis_asked
+
     cols = series.columns if isinstance(series.columns, dict) else {}
     order = (series.meta or {}).get("order")
     names = [n for n in order if n in cols] + [n for n in cols if n not in order] if isinstance(order, list) \
         else list(cols)
     return [name for name in names
             if name != series.x_column and isinstance(cols[name], list) and cols[name]
+            and not (series.kind == "thermo" and name.lower() in AXIS_COLUMNS
+                     and not axis_asked(consistency, series.name, name))
             and all(isinstance(v, (int, float)) or v is None for v in cols[name][:50])]
 
 
@@ -201,15 +207,20 @@ def series_plot(curves: list[tuple[str, object]], quantity: str | None, overlays
     series = [{"label": label, "values": v, "color": PALETTE[i % len(PALETTE)], "dash": i % 2 == 1}
               for i, (label, v) in enumerate(zip(labels, values))]
     bands = []
+    add_overlays(series, bands, len(x), overlays)
+    title, ylabel = _titles(first, quantity, columns)
+    return plot(title, xlabel, ylabel, x, series, bands=bands)
+
+
+def add_overlays(series: list[dict], bands: list[dict], length: int, overlays: list[dict] | None) -> None:
+    """Expectation lines and bands (``expectation_overlays``) appended to a plot's series and bands."""
     for overlay in overlays or []:
         base = len(series)
-        for j, line in enumerate(overlay["lines"]):
-            series.append({"label": line["label"], "values": [line["y"]] * len(x), "color": overlay["color"],
+        for line in overlay["lines"]:
+            series.append({"label": line["label"], "values": [line["y"]] * length, "color": overlay["color"],
                            "dash": True, "width": 1})
         if overlay.get("band") and len(overlay["lines"]) == 2:
             bands.append({"upper": base + 1, "lower": base, "fill": overlay["fill"]})
-    title, ylabel = _titles(first, quantity, columns)
-    return plot(title, xlabel, ylabel, x, series, bands=bands)
 
 
 def difference_plot(curves: list[tuple[str, object]], quantity: str) -> dict | None:

@@ -153,18 +153,42 @@ def text_diffs(run_a, texts_a: dict, run_b, texts_b: dict) -> list[dict]:
     return out
 
 
-def run_plots(run, series) -> list[dict]:
+def run_plots(run, series, reference=None, reference_series=()) -> list[dict]:
     """Plots of a run page: every thermo/VTK quantity and every declared plot (thesis fig. 4.4), declared
-    plots first, with the run configuration's expectations on the quantities they bound."""
+    plots first, with the run configuration's expectations on the quantities they bound.
+
+    With a ``reference`` run (the one the check scores against, ``RunQuerySet.reference_for``) every plot
+    overlays it: a quantity the check scores is drawn over the reference with its 5 % and 10 % acceptance
+    bands (harness.consistency.compare_runs, thesis fig. 4.11), a declared plot with the reference's curves.
+    """
+    from harness.consistency import compare_runs
+
+    consistency = (run.config or {}).get("consistency")
+    by_key = {(s.kind, s.name): s for s in reference_series}
+    results = {}
+    if reference is not None:
+        as_dicts = [{"kind": x.kind, "name": x.name, "x_column": x.x_column, "columns": x.columns}
+                    for x in (*series, *reference_series)]
+        ours, theirs = as_dicts[:len(series)], as_dicts[len(series):]
+        results = {(r.series_kind, r.series_name, r.quantity): r for r in compare_runs(ours, theirs, consistency)}
+    label, ref_label = f"#{run.pk}", (short_label(reference) if reference is not None else "")
     out = []
     for s in sorted(series, key=lambda s: (s.kind != "plot", s.kind, s.name)):
+        ref = by_key.get((s.kind, s.name))
         if s.kind == "plot":
             if plots.quantities(s):
-                out.append(plots.series_plot([(f"#{run.pk}", s)], None))
+                curves = [(label, s)] + ([(f"reference: {ref_label}", ref)] if ref is not None else [])
+                out.append(plots.series_plot(curves, None))
             continue
-        for quantity in plots.quantities(s):
-            out.append(plots.series_plot([(f"#{run.pk}", s)], quantity,
-                                         plots.expectation_overlays(run.config, s.name, quantity)))
+        for quantity in plots.quantities(s, consistency):
+            overlays = plots.expectation_overlays(run.config, s.name, quantity)
+            scored = results.get((s.kind, s.name, quantity))
+            if ref is not None and scored is not None and scored.value is not None:
+                drawn = plots.consistency_plots(scored, s, ref, label, ref_label)[0]
+                plots.add_overlays(drawn["series"], drawn["bands"], len(drawn["x"]), overlays)
+                out.append(drawn)
+            else:
+                out.append(plots.series_plot([(label, s)], quantity, overlays))
     return out
 
 

@@ -182,8 +182,11 @@ def run_detail(request, run_id):
 def run_plots(request, run_id):
     """Every quantity of every series of a run and every declared plot (thesis fig. 4.4), with the run
     configuration's expectations drawn over the quantities they bound."""
-    run = get_object_or_404(Run.objects.only("id", "config"), pk=run_id)
-    return _plots_json(presentation.run_plots(run, Series.objects.filter(run=run)))
+    run = get_object_or_404(Run.objects.select_related("target__reference"), pk=run_id)
+    reference = Run.objects.reference_for(run)
+    return _plots_json(presentation.run_plots(
+        run, list(Series.objects.filter(run=run)), reference,
+        list(Series.objects.filter(run=reference)) if reference is not None else []))
 
 
 def run_file(request, run_id, relative):

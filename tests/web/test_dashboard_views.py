@@ -269,8 +269,32 @@ class RunDetailTest(DashboardTest):
         self.assertIn("post/dump_100.vtp", html)
         self.assertIn(f'data-plots="/runs/{run.pk}/plots.json"', html)
         specs = json.loads(self.get(f"/runs/{run.pk}/plots.json").content)["plots"]
-        # declared torque plot first, then atoms, ke, rke (step is the abscissa)
-        self.assertEqual([s["title"] for s in specs], ["Torque", "thermo: atoms", "thermo: ke", "thermo: rke"])
+        # declared torque plot first, then atoms, ke, rke (step is the abscissa), each over the reference run
+        # with its C (the same as the stored, independently computed one) and its 5 % and 10 % bands
+        self.assertEqual([s["title"] for s in specs], [
+            "Torque", "thermo: atoms  (C = 1.0000, perfect)", f"thermo: ke  (C = {self.s['c']:.4f}, inconsistent)",
+            "thermo: rke  (C = 1.0000, perfect)"])
+        ke = specs[2]
+        labels = [s["label"] for s in ke["series"]]
+        self.assertIn(f"reference: #{self.s['reference'].pk} dem-v1@v1 (aaaaaaa)", labels)
+        self.assertEqual([b["label"] for b in ke["bands"]], ["10 % band (good)", "5 % band (perfect)"])
+        self.assertEqual(ke["markers"][0]["x"], self.s["first_bad"])
+        self.assertEqual([s["label"] for s in specs[0]["series"]][-1].split(":")[0], "reference")
+
+    def test_axis_columns_are_not_plotted_unless_the_run_configuration_asks(self):
+        from harness.models import Series
+
+        run = self.s["inconsistent"]
+        thermo = Series.objects.get(run=run, kind="thermo")
+        thermo.columns = {**thermo.columns, "time": [s * 2e-5 for s in thermo.columns["step"]]}
+        thermo.save()
+        titles = [s["title"].split("  (")[0] for s in
+                  json.loads(self.get(f"/runs/{run.pk}/plots.json").content)["plots"]]
+        self.assertNotIn("thermo: time", titles)
+        Run.objects.filter(pk=run.pk).update(config={**run.config, "consistency": {"time": {}}})
+        titles = [s["title"].split("  (")[0] for s in
+                  json.loads(self.get(f"/runs/{run.pk}/plots.json").content)["plots"]]
+        self.assertIn("thermo: time", titles)
 
     def test_log_markup_is_escaped(self):
         html = self.get(f"/runs/{self.s['inconsistent'].pk}/").content.decode()
