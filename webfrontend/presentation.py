@@ -39,6 +39,18 @@ def speed_change(ratio: float) -> dict:
     return {"text": f"{(ratio - 1.0) * 100.0:+.0f} %", "kind": kind}
 
 
+def choose_reference(runs: list, asked: int | None):
+    """The run of ``runs`` the others are compared against: the one asked for; else a run by the reference
+    target of another run's target (the comparison ``harness check`` makes); else the first (None: no runs)."""
+    if not runs:
+        return None
+    by_id = {r.pk: r for r in runs}
+    if asked in by_id:
+        return by_id[asked]
+    references = {r.target.reference_id for r in runs if r.target.reference_id}
+    return next((r for r in runs if r.target_id in references), runs[0])
+
+
 def breadcrumbs(path: str) -> list[tuple[str, str]]:
     """(name, folder path) of each level of ``a/b/c``: a, a/b, a/b/c."""
     parts = path.split("/") if path else []

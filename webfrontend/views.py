@@ -213,6 +213,7 @@ def _comparison(runs) -> dict:
         texts = [RunFolder(r).texts() for r in runs]
         diffs = presentation.text_diffs(runs[0], texts[0], runs[1], texts[1])
     return {"runs": runs, "compared": [(r, presentation.run_label(r)) for r in runs],
+            "diff_count": sum(not d["equal"] for d in diffs),
             "timings": presentation.timing_bars(runs), "diffs": diffs, "compare_limit": COMPARE_LIMIT,
             "contents": len({r.testcase_hash for r in runs}),
             "plots_url": reverse("compare-plots") + "?" + urlencode({"run": ",".join(str(r.pk) for r in runs)})
@@ -220,8 +221,17 @@ def _comparison(runs) -> dict:
 
 
 def compare(request):
+    """Runs side by side against one of them, the reference: the one ``reference=ID`` names, else a run of
+    the reference target of another compared run's target, else the first. The reference comes first: the
+    bands are drawn around it and the diffs go from it to the other run."""
     runs = _compared(params.id_list(request.GET, "run", COMPARE_LIMIT, "runs"))
-    return render(request, "webfrontend/compare.html", _comparison(runs))
+    reference = presentation.choose_reference(runs, params.optional_id(request.GET, "reference"))
+    if reference is not None:
+        runs = [reference] + [r for r in runs if r is not reference]
+    return render(request, "webfrontend/compare.html", {
+        **_comparison(runs), "compare_reference": reference,
+        "reference_links": [(r, "?" + urlencode([("run", x.pk) for x in runs] + [("reference", r.pk)]))
+                            for r in runs if r is not reference]})
 
 
 def compare_plots(request):

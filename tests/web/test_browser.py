@@ -111,7 +111,13 @@ class BrowserTest(BrowserCase):
         page.get_by_role("button", name="compare selected runs").click()
         assert page.locator("h1").inner_text() == "Comparison of 2 runs"
         assert page.locator(".timing-row").count() == 2
+        # the file diffs come after the plots, closed: a click opens one
+        assert page.evaluate("() => [...document.querySelectorAll('h2')].map(h => h.innerText.split(':')[0])"
+                             ".indexOf('Plots') < [...document.querySelectorAll('h2')]"
+                             ".findIndex(h => h.innerText.startsWith('Differences'))")
         diff = page.locator("details.diff", has_text="input script")
+        assert diff.get_attribute("open") is None
+        diff.locator("summary").click()
         # the history lists the older build first, so the diff goes from the older run to the newer one
         assert '-{"run": 2000, "dt": 1e-5}\n+{"run": 2000, "dt": 2e-5}' in diff.inner_text()
         assert page.get_by_text("run configuration: identical").is_visible()

@@ -375,6 +375,21 @@ class CompareTest(DashboardTest):
         self.assertTrue(titles[ke + 2].startswith("thermo: ke, deviation from the reference"))
         self.assertEqual(specs[ke + 1]["markers"][0]["x"], self.s["first_bad"])
 
+    def test_the_reference_is_the_reference_targets_run_unless_another_is_chosen(self):
+        """Ticked in either order, the reference target's run is the reference: the bands go around it and
+        the diff goes from it; ``reference=ID`` chooses another, and the page links to that choice."""
+        a, b = self.s["reference"], self.s["inconsistent"]
+        html = self.get(f"/compare/?run={b.pk}&run={a.pk}").content.decode()
+        self.assertIn(f"Reference: <strong>#{a.pk}", html)
+        self.assertIn('<div class="del">-{&quot;run&quot;: 2000, &quot;dt&quot;: 1e-5}</div>', html)
+        self.assertLess(html.index('id="compare-plots"'), html.index('<details class="diff">'))  # diffs below
+        url = re.search(r'data-plots="(/compare/plots\.json[^"]*)"', html).group(1).replace("&amp;", "&")
+        self.assertIn(f"run={a.pk}%2C{b.pk}", url)
+        self.assertIn(f'href="?run={a.pk}&amp;run={b.pk}&amp;reference={b.pk}"', html)
+        html = self.get(f"/compare/?run={a.pk}&run={b.pk}&reference={b.pk}").content.decode()
+        self.assertIn(f"Reference: <strong>#{b.pk}", html)
+        self.assertIn('<div class="add">+{&quot;run&quot;: 2000, &quot;dt&quot;: 1e-5}</div>', html)
+
     def test_three_runs_without_diffs(self):
         ids = [self.s[k].pk for k in ("reference", "inconsistent", "older")]
         html = self.get("/compare/?run=" + ",".join(map(str, ids))).content.decode()
@@ -409,7 +424,7 @@ class ConsistencyTest(DashboardTest):
         self.assertIn(f"{self.s['c']:.4f}", html)
         self.assertIn("inconsistent", html)
         self.assertIn(f"<td class=\"num\">{self.s['first_bad']}</td>", html)
-        self.assertIn("Differences (unified diff", html)
+        self.assertIn("Differences of the files", html)
         self.assertIn(f'data-plots="/runs/{run.pk}/consistency/plots.json"', html)
         specs = json.loads(self.get(f"/runs/{run.pk}/consistency/plots.json").content)["plots"]
         # ke (lowest C first) and atoms: each the bands and the deviation
