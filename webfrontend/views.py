@@ -374,13 +374,32 @@ def _build_choices():
 COMPARE_ROWS_SHOWN = 200
 
 
+def _reference_and_current() -> tuple[int, int] | None:
+    """(reference build, current build) ids: of the most recently built target that names a reference target,
+    its current build and its reference target's current build on the same machine (None: no such pair)."""
+    currents = list(Build.objects.filter(current=True, status=Build.Status.COMPLETE)
+                    .select_related("target").only("id", "machine_id", "target_id", "target__reference_id",
+                                                   "committed_at", "started")
+                    .order_by("-started", "-committed_at", "-id"))
+    by_key = {(b.machine_id, b.target_id): b.pk for b in currents}
+    for build in currents:
+        reference = by_key.get((build.machine_id, build.target.reference_id))
+        if build.target.reference_id and reference is not None:
+            return reference, build.pk
+    return None
+
+
 def compare_builds_page(request):
     """Two builds side by side: what ``harness compare A B`` prints (harness.compare.compare_builds), each row
     linking to the two runs' comparison with the consistency bands of B around A."""
     from harness.compare import compare_builds, rows, summary
 
     a_id, b_id = params.optional_id(request.GET, "a"), params.optional_id(request.GET, "b")
-    context = {"choices": _build_choices(), "a_id": a_id, "b_id": b_id}
+    defaulted = a_id is None and b_id is None
+    if defaulted:
+        # nothing asked: the current build of the newest target with a reference against its reference's
+        a_id, b_id = _reference_and_current() or (None, None)
+    context = {"choices": _build_choices(), "a_id": a_id, "b_id": b_id, "defaulted": defaulted and a_id is not None}
     if a_id is not None and b_id is not None:
         builds = Build.objects.select_related("target", "machine").defer("log")
         a, b = get_object_or_404(builds, pk=a_id), get_object_or_404(builds, pk=b_id)

@@ -41,7 +41,17 @@ class CompareBuildsTest(TestCase):
         for build in Build.objects.all():
             self.assertIn(f'<option value="{build.pk}"', html)
         self.assertIn('<optgroup label="dem-master on ws1">', html)
-        self.assertNotIn('<table class="build-comparison">', html)
+
+    def test_without_a_choice_the_reference_is_compared_with_the_current_build(self):
+        """Never A = B: dem-v1's current build (the reference) against dem-master's current build."""
+        html = self.client.get("/builds/compare/").content.decode()
+        reference = Build.objects.get(commit="a" * 40)
+        self.assertIn("Chosen for you", html)
+        a = html.split('id="build-a"', 1)[1].split("</select>", 1)[0]
+        b = html.split('id="build-b"', 1)[1].split("</select>", 1)[0]
+        self.assertIn(f'<option value="{reference.pk}" selected>', a)
+        self.assertIn(f'<option value="{self.new.pk}" selected>', b)
+        self.assertEqual(cells(html), cells(self.page(reference, self.new)))
 
     def test_rows_are_what_harness_compare_prints(self):
         html = self.page(self.old, self.new)
