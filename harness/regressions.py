@@ -55,6 +55,11 @@ def speed_changes(times: list[float | None], k: float = 3.0, window: int = 5, mi
     return out
 
 
+def comparable(found: list[History]) -> int:
+    """How many of the histories have runs of at least two builds: only those can show a change."""
+    return sum(len({p[0] for p in h.points}) >= 2 for h in found)
+
+
 def histories(machine: str, target: str | None = None, pattern: str | None = None, k: float = 3.0,
               window: int = 5, min_change: float = 0.1) -> list[History]:
     """The history of every run configuration (of ``target``, matching ``pattern``) with its changes."""

@@ -345,7 +345,8 @@ def clipped_c(values: list[float | None]) -> tuple[list[float | None], list[floa
 
 
 def history_plots(labels: list[str], lines: dict[str, dict], changes: list[dict], title: str) -> list[dict]:
-    """C, stepping time and wall time of a test case's run configurations over the commits of a target.
+    """C, stepping time (log axis) and start-up (wall - stepping time: process start, kernel compilation,
+    output; log axis) of a test case's run configurations over the commits of a target.
 
     ``labels`` are the commits oldest first (the abscissa is their index); ``lines`` maps a run
     configuration name to ``{"c": [...], "stepping": [...], "wall": [...]}`` (None where it has no run);
@@ -353,25 +354,35 @@ def history_plots(labels: list[str], lines: dict[str, dict], changes: list[dict]
     """
     markers = [{"x": c["index"], "label": c["label"], "color": MARKER_COLOR} for c in changes]
     x = list(range(len(labels)))
-    c_series, t_series = [], []
+    c_series, t_series, o_series = [], [], []
     limits = None
     for i, (name, line) in enumerate(sorted(lines.items())):
         drawn, true, clip = clipped_c(line["c"])
         limits = clip or limits
         c_series.append({"label": f"{name} lowest C", "values": drawn, "hover": true,
                          "color": PALETTE[i % len(PALETTE)], "points": True})
-        t_series.append({"label": f"{name} stepping time", "values": line["stepping"],
+        t_series.append({"label": f"{name} stepping time", "values": positive(line["stepping"]),
                          "color": PALETTE[i % len(PALETTE)], "points": True})
-        t_series.append({"label": f"{name} wall time", "values": line["wall"], "color": PALETTE[i % len(PALETTE)],
-                         "dash": True, "points": True})
+        overhead = [None if w is None or t is None else w - t for w, t in zip(line["wall"], line["stepping"])]
+        o_series.append({"label": f"{name} start-up", "values": positive(overhead),
+                         "color": PALETTE[i % len(PALETTE)], "dash": True, "points": True})
     c_series += [{"label": "C = 0.95 (perfect)", "values": [0.95] * len(x), "color": "#2e8b57", "dash": True,
                   "width": 1},
                  {"label": "C = 0.90 (good)", "values": [0.90] * len(x), "color": "#d68910", "dash": True,
                   "width": 1}]
+    # speed on its own log axis: a 5 ms test and a 5 s one both show their changes; start-up (process start,
+    # kernel compilation on a new build, output) apart, so that 50 s of compilation does not swamp it
     return [plot(f"{title}: lowest consistency C per commit", "commit (oldest first)", "lowest C [1]", x,
                  c_series, markers=markers, xticks=labels, ylimits=limits),
-            plot(f"{title}: time per commit", "commit (oldest first)", "time [s]", x, t_series,
-                 markers=markers, xticks=labels)]
+            plot(f"{title}: stepping time per commit", "commit (oldest first)", "stepping time [s] (log)", x,
+                 t_series, markers=markers, xticks=labels, ylog=True),
+            plot(f"{title}: start-up per commit (wall time - stepping time)", "commit (oldest first)",
+                 "start-up [s] (log)", x, o_series, xticks=labels, ylog=True)]
+
+
+def positive(values: list) -> list:
+    """Values for a log axis: None where a value is missing or not above 0."""
+    return [v if v is not None and v > 0 else None for v in values]
 
 
 def sweep_plots(table, spec: dict, title: str) -> list[dict]:

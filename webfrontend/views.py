@@ -313,7 +313,7 @@ def history_plots(request, target_id, testcase):
 def regressions(request):
     """The commits where a test case's stepping time or a quantity changed (harness.regressions.histories,
     as ``harness regressions`` prints them), on one machine, optionally of one target and ``-k`` pattern."""
-    from harness.regressions import histories
+    from harness.regressions import comparable, histories
 
     machine = _one_machine(request, "regressions")
     target_id = params.optional_id(request.GET, "target")
@@ -322,6 +322,7 @@ def regressions(request):
     found = histories(machine.name, target.name if target else None, pattern) if machine else []
     return render(request, "webfrontend/regressions.html", {
         "machine": machine, "target": target, "pattern": pattern or "", "histories": len(found),
+        "comparable": comparable(found),
         "changes": presentation.regression_rows(found, machine),
         "targets": Target.objects.order_by("name"), "machines": Machine.objects.order_by("name")})
 

@@ -19,7 +19,7 @@ def run(args) -> int:
     from harness.store import setup_store
 
     setup_store()
-    from harness.regressions import histories
+    from harness.regressions import comparable, histories
     from harness.runner import format_table
 
     found = histories(args.machine, args.target, args.pattern, args.sigma, args.window, args.min_change)
@@ -31,7 +31,8 @@ def run(args) -> int:
     else:
         rows = [("target", "test case", "run", "commit", "after", "change", "detail")]
         for h, c in changes:
-            rows.append((h.target, h.testcase, h.run, c.commit[:10], c.previous_commit[:10], c.kind, c.detail[:100]))
+            rows.append((h.target, h.testcase, h.run, c.commit[:10], c.previous_commit[:10], c.kind, c.detail))
         print(format_table(rows) if changes else "no changes found")
-        print(f"{len(found)} histories, {sum(len(h.points) for h in found)} runs, {len(changes)} changes")
+        print(f"{len(found)} histories, {comparable(found)} of them with runs of two or more builds (only those "
+              f"can change), {sum(len(h.points) for h in found)} runs, {len(changes)} changes")
     return 5 if not found else 0

@@ -542,11 +542,11 @@ class HistoryJunitStaticTest(DashboardTest):
         self.assertLess(html.index("<code>bbbbbbbbbb</code>"), html.index("<code>cccccccccc</code>"))
         self.assertIn("0.9900", html)
         url = re.search(r'data-plots="(/history/[^"]+)"', html).group(1).replace("&amp;", "&")
-        c_plot, time_plot = json.loads(self.get(url).content)["plots"]
+        c_plot, time_plot, startup_plot = json.loads(self.get(url).content)["plots"]
         self.assertEqual(c_plot["xticks"], ["bbbbbbb", "ccccccc"])
         self.assertEqual(c_plot["series"][0]["values"], [0.99, self.s["c"]])
-        self.assertEqual([x["label"] for x in time_plot["series"]], ["serial stepping time", "serial wall time"])
-        self.assertEqual(time_plot["series"][1]["values"], [2.0, 1.1])
+        self.assertEqual([x["label"] for x in time_plot["series"]], ["serial stepping time"])
+        self.assertEqual([x["label"] for x in startup_plot["series"]], ["serial start-up"])
 
     def test_regressions_mark_the_commit_that_changed_a_quantity(self):
         s = self.s
@@ -558,6 +558,9 @@ class HistoryJunitStaticTest(DashboardTest):
         self.assertIn('<span class="change quantity">quantity</span>', table)
         self.assertIn("contact_models/hertz/impact/serial", table)
         self.assertIn(f"ke C = {s['c']:.3g}", table)
+        # five histories (hertz on dem-v1 and on master, hooke serial and mpi4, settle): one over two builds
+        self.assertIn('in 5 histories, <strong class="comparable">1</strong> of them with runs of two or more builds',
+                      html)
         self.assertIn(f'href="/history/{s["master"].pk}/contact_models/hertz/impact/?machine={s["ws1"].pk}"', table)
         url = f"/history/{s['master'].pk}/{s['hertz'].path}/plots.json?machine={s['ws1'].pk}"
         c_plot = json.loads(self.get(url).content)["plots"][0]
