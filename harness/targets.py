@@ -299,6 +299,16 @@ def select_targets(names: list[str], folder: Path | None = None) -> tuple[list[T
     return chosen, problems
 
 
+def with_testcases(target: TargetDefinition, folder: str | Path | None) -> TargetDefinition:
+    """``target`` with its test case folders replaced by ``folder`` (made absolute: read as it is on disk, no
+    git), for ``harness run --testcases`` and ``harness validate --testcases``; unchanged without one."""
+    import dataclasses
+
+    if not folder:
+        return target
+    return dataclasses.replace(target, testcases=[str(Path(folder).expanduser().resolve())])
+
+
 def reference_of(target: TargetDefinition, folder: Path | None = None) -> TargetDefinition | None:
     """The reference target's definition (from the same folder as ``target``), or None."""
     if not target.reference:

@@ -52,8 +52,8 @@ def apply_mapping(frame: pd.DataFrame, mapping: dict[str, str] | None, required,
 @register
 class DemAdapter(EngineAdapter):
     name = "dem"
-    first_run_note = ("the engine compiles its kernels on the first runs of a new build (up to a minute each "
-                      "for a new combination of contact models); later runs reuse them")
+    first_run_note = ("the engine compiles its kernels first (up to a minute for each new combination of "
+                      "contact models); later runs reuse them")
     thermo_file = "thermo.csv"
     timing_file = "timing.json"
 

@@ -20,6 +20,9 @@ def configure(parser):
     parser.add_argument("-v", dest="verbose", action="store_true",
                         help="print every run's whole message below the table (the table cuts them to fit)")
     parser.add_argument("--json", action="store_true", help="print the verdicts as JSON")
+    parser.add_argument("--testcases", metavar="FOLDER",
+                        help="check the runs of the test cases of this folder (as 'harness run --testcases' ran "
+                             "them) instead of the targets' own")
     parser.add_argument("--junit", metavar="FILE", help="write JUnit XML (Jenkins) to FILE")
 
 
@@ -52,10 +55,12 @@ def run(args) -> int:
     from harness.runner import format_table
     from harness.runrecord import finite
     from harness.store import setup_store
+    from harness.targets import with_testcases
     from harness.textout import ELLIPSIS, width, wrap
 
     setup_store()
     targets, problems = expand(args.targets, args.targets_dir)
+    targets = [with_testcases(t, args.testcases) for t in targets]
     report = check_targets(targets, args.machine, pattern=args.pattern)
     report.problems[:0] = problems
     for problem in report.problems:

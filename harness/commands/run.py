@@ -1,5 +1,6 @@
 """``harness run [TARGET ...] [-k PATTERN] [-j N] [--rerun-failed] [--working-tree] [--scheduler ADDRESS]``."""
 import sys
+from pathlib import Path
 
 NAME = "run"
 HELP = "build targets if needed and run their test cases"
@@ -17,6 +18,8 @@ def add_selection(parser, what: str = "runs"):
 
 def configure(parser):
     add_selection(parser)
+    parser.add_argument("--testcases", metavar="FOLDER",
+                        help="run the test cases of this folder (anywhere on disk) instead of the targets' own")
     parser.add_argument("--steps", type=int, metavar="N",
                         help="with TARGET@A..B: N commits spread evenly over the range (default: every commit)")
     parser.add_argument("--rerun-failed", action="store_true", help="run failed runs again")
@@ -39,6 +42,14 @@ def run(args) -> int:
     targets, problems = expand(args.targets, args.targets_dir, args.steps)
     if args.targets and not args.no_reference:
         targets = with_references(targets)
+    if args.testcases:
+        from harness.targets import with_testcases
+
+        if not Path(args.testcases).expanduser().is_dir():
+            from harness.adapters.base import UserError
+
+            raise UserError(f"--testcases: {args.testcases}: no such folder")
+        targets = [with_testcases(t, args.testcases) for t in targets]
     if args.jobs < 1:
         from harness.adapters.base import UserError
 
