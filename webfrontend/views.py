@@ -375,6 +375,37 @@ def _build_choices():
 COMPARE_ROWS_SHOWN = 200
 
 
+def commit_page(request, target, commit):
+    """What a commit did to a target: its build on one machine (``?machine=NAME``, else the machine of its newest
+    build of that commit), the verdict of its runs, and against the build of the commit before (history order):
+    new failures, fixes, inconsistencies and the stepping-time change - what ``harness compare`` prints."""
+    from harness.compare import compare_builds, rows, summary
+    from harness.queries import fold_into_children, previous_builds
+
+    target_row = get_object_or_404(Target, name=target)
+    builds = Build.objects.filter(target=target_row, commit__startswith=commit.lower()).select_related(
+        "machine", "target").defer("log")
+    machine_name = params.text(request.GET, "machine")
+    if machine_name:
+        builds = builds.filter(machine__name=machine_name)
+    build = builds.order_by("-current", "-started", "-id").first()
+    if build is None:
+        raise Http404("no build of this commit")
+    tally = fold_into_children(Run.objects.filter(build=build, replaced=False).outcome_rows(), "")[1]
+    previous = previous_builds([build])[build.pk]
+    context = {"build": build, "tally": tally, "previous": previous, "target": target_row,
+               "commit": presentation.commit_link(build, (target_row.definition or {}).get("commit_url"))}
+    if previous is not None:
+        previous = Build.objects.select_related("target", "machine").defer("log").get(pk=previous.pk)
+        comparison = compare_builds(previous, build, build.machine.name, presentation.build_label(previous),
+                                    presentation.build_label(build))
+        table = presentation.comparison_rows(comparison)
+        context.update({"a": previous, "b": build, "comparison": comparison, "summary": summary(comparison),
+                        "counts": comparison.counts(), "header": rows(comparison)[0], "previous": previous,
+                        "rows": table[:COMPARE_ROWS_SHOWN], "hidden_rows": len(table) - COMPARE_ROWS_SHOWN})
+    return render(request, "webfrontend/commit.html", context)
+
+
 def _reference_and_current() -> tuple[int, int] | None:
     """(reference build, current build) ids: of the most recently built target that names a reference target,
     its current build and its reference target's current build on the same machine (None: no such pair)."""

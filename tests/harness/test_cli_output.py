@@ -95,3 +95,16 @@ def test_status_help_explains_every_column(capsys):
     assert widest(out) <= 120
     for heading in ("current build", "not run", "executed", "failed", "post-proc", "checked", "outdated", "older"):
         assert f"\n  {heading} " in out, heading
+
+
+def test_ci_prints_the_commit_page_of_each_build_when_a_dashboard_is_configured(project, capsys, monkeypatch):
+    from harness.models import Build
+
+    assert harness(project, "ci", "--junit", str(project.parent / "junit.xml")) == 1
+    assert "dashboard:" not in capsys.readouterr().out  # no dashboard URL: no link
+    monkeypatch.setenv("HARNESS_DASHBOARD_URL", "https://ci.example.org/dem/")
+    assert harness(project, "ci", "--junit", str(project.parent / "junit.xml")) == 1
+    out = capsys.readouterr().out
+    commit = Build.objects.get(target__name="development_branch", current=True).commit
+    assert (f"dashboard: development_branch at {commit[:10]}: "
+            f"https://ci.example.org/dem/commits/development_branch/{commit}/?machine=m1") in out

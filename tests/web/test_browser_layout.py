@@ -72,6 +72,7 @@ class LayoutTest(BrowserCase):
             "compare_builds": f"/builds/compare/?a={s['older'].build_id}&b={s['new_build'].pk}",
             "compare_builds_default": "/builds/compare/",
             "history": f"/history/{target}/{case}/",
+            "commit": f"/commits/dem-master/{s['new_build'].commit}/?machine=ws1",
             "regressions": f"/regressions/?machine={s['ws1'].pk}",
             "sweeps": "/sweeps/",
             "matrix": "/matrix/",

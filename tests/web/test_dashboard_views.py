@@ -110,7 +110,8 @@ class OverviewTest(DashboardTest):
         Target.objects.filter(pk=master.pk).update(
             definition={**master.definition, "commit_url": "https://example.org/dem/commit/{commit}"})
         row = target_rows(self.get("/").content.decode())["dem-master"]
-        self.assertIn(f'<a href="https://example.org/dem/commit/{"c" * 40}" title="faster neighbor list">', row)
+        self.assertIn(f'<a class="web" href="https://example.org/dem/commit/{"c" * 40}"', row)
+        self.assertIn(f'<a href="/commits/dem-master/{"c" * 40}/?machine=ws1" title="faster neighbor list">', row)
 
     def test_stepping_time_change_against_the_build_before(self):
         """The current master build against the older one, paired by test case and run name: the geometric
@@ -126,6 +127,27 @@ class OverviewTest(DashboardTest):
         row = target_rows(self.get("/").content.decode())["dem-master"]
         self.assertEqual(cells(row)[8], "-5 %")
         self.assertIn('class="change same"', row)
+
+    def test_the_commit_page_says_what_the_commit_changed(self):
+        """dem-master at cccc against the commit before (bbbb): the drifted impact is inconsistent, two hooke
+        runs and the settle run exist only now; the verdict is that of harness check."""
+        s = self.s
+        Run.objects.exclude(state="not_executed").update(finished=s["older"].started)
+        html = self.get(f"/commits/dem-master/{'c' * 12}/?machine=ws1").content.decode()
+        self.assertIn("dem-master at <code>cccccccccc</code>", html)
+        self.assertIn("faster neighbor list", html)
+        self.assertIn('<span class="target-verdict failed">failed</span>', html)
+        self.assertIn("1 passed", html)
+        self.assertIn(f'href="/commits/dem-master/{"b" * 40}/?machine=ws1"', html)  # the commit before
+        self.assertIn('<li class="outcome inconsistent">1 inconsistent</li>', html)
+        self.assertIn("contact_models/hertz/impact", html.split('<table class="build-comparison">')[1])
+        # the first build has no commit before
+        html = self.get(f"/commits/dem-master/{'b' * 40}/").content.decode()
+        self.assertIn("none: this is the first build of dem-master on ws1", html)
+        self.assertEqual(self.client.get("/commits/dem-master/ffff/").status_code, 404)
+        # run lists link each run's build to its commit page
+        self.assertIn(f'href="/commits/dem-master/{"c" * 40}/?machine=ws1"',
+                      self.get(f"/testcases/{s['hertz'].path}/").content.decode())
 
     def test_a_search_lists_the_runs_it_found(self):
         html = self.get("/?q=hooke").content.decode()
