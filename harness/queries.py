@@ -211,27 +211,37 @@ def stepping_changes(builds) -> dict:
 
     The runs of both builds are paired by test case and run name (the shortest stepping time of each, in s);
     the change is the geometric mean of the ratios now / before over the pairs, so that a 5 ms test counts
-    as much as a 5 s one. Returns ``{build id: {"ratio", "pairs", "previous" (Build)}}`` for the builds with
-    at least one pair. Two queries.
+    as much as a 5 s one; ``noise`` is the median over the pairs of the larger measured spread of repeated
+    stepping times (harness.regressions.relative_spread, ``harness run --repeat``; 0 without repeats).
+    Returns ``{build id: {"ratio", "pairs", "previous" (Build), "noise"}}`` for the builds with at least one
+    pair. Two queries.
     """
-    from harness.models import Run
-
     import math
+    import statistics
+
+    from harness.models import Run
 
     previous = {pk: b for pk, b in previous_builds(builds).items() if b is not None}
     if not previous:
         return {}
+    from harness.regressions import relative_spread
+
     times: dict = {}
-    for row in (Run.objects.filter(build_id__in=set(previous) | {b.pk for b in previous.values()},
-                                   replaced=False, stepping_time__gt=0)
-                .values("build_id", "testcase_id", "name").annotate(t=Min("stepping_time")).order_by()):
-        times.setdefault(row["build_id"], {})[(row["testcase_id"], row["name"])] = row["t"]
+    for build_id, testcase_id, name, stepping, timing in (
+            Run.objects.filter(build_id__in=set(previous) | {b.pk for b in previous.values()}, replaced=False,
+                               stepping_time__gt=0)
+            .order_by("stepping_time").values_list("build_id", "testcase_id", "name", "stepping_time", "timing")):
+        # the shortest stepping time of each run configuration, with the spread of its repeats
+        times.setdefault(build_id, {}).setdefault((testcase_id, name), (stepping, relative_spread(timing)))
     out = {}
     for pk, before in previous.items():
         now, then = times.get(pk, {}), times.get(before.pk, {})
-        logs = [math.log(now[k] / then[k]) for k in now.keys() & then.keys()]
-        if logs:
-            out[pk] = {"ratio": math.exp(sum(logs) / len(logs)), "pairs": len(logs), "previous": before}
+        shared = now.keys() & then.keys()
+        if shared:
+            logs = [math.log(now[k][0] / then[k][0]) for k in shared]
+            noise = statistics.median(max(now[k][1], then[k][1]) for k in shared)
+            out[pk] = {"ratio": math.exp(sum(logs) / len(logs)), "pairs": len(logs), "previous": before,
+                       "noise": noise}
     return out
 
 

@@ -38,19 +38,33 @@ class History:
     changes: list[Change] = field(default_factory=list)
 
 
-def speed_changes(times: list[float | None], k: float = 3.0, window: int = 5, min_change: float = 0.1
-                  ) -> list[tuple[int, float]]:
+def relative_spread(timing) -> float:
+    """The measured noise of a run's stepping time: (max - min) / median of its repeated stepping times
+    (``timing["stepping_repeats"]``, ``harness run --repeat N``); 0 without repeats."""
+    repeats = [t for t in ((timing or {}).get("stepping_repeats") or []) if isinstance(t, (int, float)) and t > 0]
+    if len(repeats) < 2:
+        return 0.0
+    return (max(repeats) - min(repeats)) / statistics.median(repeats)
+
+
+def speed_changes(times: list[float | None], k: float = 3.0, window: int = 5, min_change: float = 0.1,
+                  spreads: list[float] | None = None) -> list[tuple[int, float]]:
     """Indices whose stepping time leaves mean +/- k sd of the previous ``window`` values by at least
-    ``min_change`` (relative), with the ratio to that mean."""
+    ``min_change`` (relative) and by more than the measured spread (``relative_spread`` of that build's run
+    and of the runs before it: a change inside the noise of repeated runs is no change), with the ratio to
+    that mean."""
     out = []
+    spreads = spreads or [0.0] * len(times)
     for i, value in enumerate(times):
-        before = [t for t in times[max(0, i - window):i] if t]
+        window_at = range(max(0, i - window), i)
+        before = [times[j] for j in window_at if times[j]]
         if not value or len(before) < 2:
             continue
         mean = statistics.fmean(before)
         sd = statistics.stdev(before)
         ratio = value / mean
-        if abs(value - mean) > k * sd and abs(ratio - 1.0) >= min_change:
+        noise = max([spreads[i]] + [spreads[j] for j in window_at])
+        if abs(value - mean) > k * sd and abs(ratio - 1.0) >= max(min_change, noise):
             out.append((i, ratio))
     return out
 
@@ -81,7 +95,8 @@ def histories(machine: str, target: str | None = None, pattern: str | None = Non
         for run in series:
             history.points.append((run.build.commit, run.build.committed_at, run.stepping_time, run.wall_time,
                                    run.consistency_min, effective_state(run)))
-        for i, ratio in speed_changes([p[2] for p in history.points], k, window, min_change):
+        spreads = [relative_spread(run.timing) for run in series]
+        for i, ratio in speed_changes([p[2] for p in history.points], k, window, min_change, spreads):
             history.changes.append(Change(series[i].build.commit, series[i - 1].build.commit,
                                           "slower" if ratio > 1 else "faster",
                                           f"stepping time {ratio:.2f}x the mean of the previous builds",

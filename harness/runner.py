@@ -44,6 +44,8 @@ class RunOptions:
     working_tree: bool = False
     scheduler: str | None = None
     force_build: bool = False
+    #: executions of each run whose stepping times are kept (``harness run --repeat N``)
+    repeat: int = 1
 
 
 @dataclass
@@ -173,6 +175,8 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
         if key in tasks:
             return
         spec = make_spec(target, info, adapter, options.machine, testcase, entry)
+        if options.repeat > 1:
+            spec["repeat"] = options.repeat
         previous = existing.get((testcase.path, entry.name, spec["testcase_hash"]))
         if entry.problems:
             report.problems.extend(entry.problems)

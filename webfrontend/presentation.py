@@ -33,10 +33,13 @@ def commit_link(build, commit_url: str | None) -> dict:
 SPEED_MARK = 0.1
 
 
-def speed_change(ratio: float) -> dict:
-    """A stepping-time ratio (now / before) for a page: "+12 %" slower, "-8 %" faster, and which."""
-    kind = "slower" if ratio - 1.0 >= SPEED_MARK else "faster" if 1.0 - ratio >= SPEED_MARK else "same"
-    return {"text": f"{(ratio - 1.0) * 100.0:+.0f} %", "kind": kind}
+def speed_change(ratio: float, noise: float = 0.0) -> dict:
+    """A stepping-time ratio (now / before) for a page: "+12 %" slower, "-8 %" faster, and which; marked only
+    beyond ``SPEED_MARK`` and beyond ``noise``, the measured spread of repeated runs (relative)."""
+    mark = max(SPEED_MARK, noise)
+    kind = "slower" if ratio - 1.0 >= mark else "faster" if 1.0 - ratio >= mark else "same"
+    return {"text": f"{(ratio - 1.0) * 100.0:+.0f} %", "kind": kind,
+            "noise": f"{noise * 100:.0f} %" if noise else ""}
 
 
 def choose_reference(runs: list, asked: int | None):

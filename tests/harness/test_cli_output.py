@@ -108,3 +108,20 @@ def test_ci_prints_the_commit_page_of_each_build_when_a_dashboard_is_configured(
     commit = Build.objects.get(target__name="development_branch", current=True).commit
     assert (f"dashboard: development_branch at {commit[:10]}: "
             f"https://ci.example.org/dem/commits/development_branch/{commit}/?machine=m1") in out
+
+
+def test_repeat_keeps_every_stepping_time(project, capsys):
+    """``harness run --repeat 3``: each engine runs three times; the three stepping times are stored (the fake
+    engine reports 2 ms each time) and the run's stepping time is their median."""
+    from harness.models import Run
+
+    assert harness(project, "run", "reference_release", "--repeat", "0") == 1
+    assert "--repeat must be at least 1" in capsys.readouterr().err
+    assert harness(project, "run", "reference_release", "--repeat", "3") == 0
+    run = Run.objects.get(target__name="reference_release")
+    assert run.timing["stepping_repeats"] == [0.002, 0.002, 0.002] and run.stepping_time == 0.002
+    record = json.loads((Path(run.folder) / "run.json").read_text())
+    assert record["timing"]["stepping_repeats"] == [0.002, 0.002, 0.002]
+    # without --repeat: one stepping time, no repeats
+    assert harness(project, "run", "development_branch", "--no-reference") == 0
+    assert "stepping_repeats" not in Run.objects.get(target__name="development_branch").timing

@@ -122,6 +122,13 @@ class OverviewTest(DashboardTest):
         self.assertEqual(cells(row)[8], "-25 %")
         self.assertIn('class="change faster"', row)
         self.assertIn("over 1 run shared with the build before (bbbbbbbbbb)", row)
+        # repeated runs (harness run --repeat) that spread by 40 %: a 25 % change is shown with it, not marked
+        Run.objects.filter(pk=self.s["inconsistent"].pk).update(
+            timing={**self.s["inconsistent"].timing, "stepping_repeats": [0.5, 0.6, 0.74]})
+        row = target_rows(self.get("/").content.decode())["dem-master"]
+        self.assertEqual(cells(row)[8], "-25 % &plusmn;40 %")
+        self.assertIn('class="change same"', row)
+        Run.objects.filter(pk=self.s["inconsistent"].pk).update(timing=self.s["inconsistent"].timing)
         # a change under 10 % is shown, not marked
         Run.objects.filter(pk=self.s["older"].pk).update(stepping_time=0.63)
         row = target_rows(self.get("/").content.decode())["dem-master"]

@@ -97,11 +97,11 @@ def compare_limit():
 
 
 @register.filter
-def speed_change(ratio):
-    """'+12 %' (slower) or '-8 %' (faster) of a stepping-time ratio now / before."""
+def speed_change(speed):
+    """'+12 %' (slower) or '-8 %' (faster) of a stepping-time change (harness.queries.stepping_changes)."""
     from webfrontend.presentation import speed_change as change
 
-    return change(ratio)
+    return change(speed["ratio"], speed.get("noise") or 0.0)
 
 
 VERDICT_LABELS = {"passed": "passed", "failed": "failed", "not_run": "not run"}
