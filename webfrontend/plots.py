@@ -372,12 +372,16 @@ def history_plots(labels: list[str], lines: dict[str, dict], changes: list[dict]
                   "width": 1}]
     # speed on its own log axis: a 5 ms test and a 5 s one both show their changes; start-up (process start,
     # kernel compilation on a new build, output) apart, so that 50 s of compilation does not swamp it
-    return [plot(f"{title}: lowest consistency C per commit", "commit (oldest first)", "lowest C [1]", x,
-                 c_series, markers=markers, xticks=labels, ylimits=limits),
-            plot(f"{title}: stepping time per commit", "commit (oldest first)", "stepping time [s] (log)", x,
-                 t_series, markers=markers, xticks=labels, ylog=True),
-            plot(f"{title}: start-up per commit (wall time - stepping time)", "commit (oldest first)",
-                 "start-up [s] (log)", x, o_series, xticks=labels, ylog=True)]
+    out = [plot(f"{title}: lowest consistency C per commit", "commit (oldest first)", "lowest C [1]", x,
+                c_series, markers=markers, xticks=labels, ylimits=limits)]
+    # a log axis without a single value draws nothing: such a plot is left out (no engine reported a time)
+    if any(v is not None for s in t_series for v in s["values"]):
+        out.append(plot(f"{title}: stepping time per commit", "commit (oldest first)", "stepping time [s] (log)",
+                        x, t_series, markers=markers, xticks=labels, ylog=True))
+    if any(v is not None for s in o_series for v in s["values"]):
+        out.append(plot(f"{title}: start-up per commit (wall time - stepping time)", "commit (oldest first)",
+                        "start-up [s] (log)", x, o_series, xticks=labels, ylog=True))
+    return out
 
 
 def positive(values: list) -> list:

@@ -571,7 +571,13 @@ class HistoryJunitStaticTest(DashboardTest):
         self.assertLess(html.index("<code>bbbbbbbbbb</code>"), html.index("<code>cccccccccc</code>"))
         self.assertIn("0.9900", html)
         url = re.search(r'data-plots="(/history/[^"]+)"', html).group(1).replace("&amp;", "&")
+        # without stepping times only C is plotted; with them, stepping time and start-up (wall - stepping)
+        self.assertEqual(len(json.loads(self.get(url).content)["plots"]), 1)
+        Run.objects.filter(pk=s["older"].pk).update(stepping_time=0.8)
+        Run.objects.filter(pk=s["inconsistent"].pk).update(stepping_time=0.6)
         c_plot, time_plot, startup_plot = json.loads(self.get(url).content)["plots"]
+        self.assertEqual(time_plot["series"][0]["values"], [0.8, 0.6])
+        self.assertEqual([round(v, 12) for v in startup_plot["series"][0]["values"]], [1.2, 0.5])
         self.assertEqual(c_plot["xticks"], ["bbbbbbb", "ccccccc"])
         self.assertEqual(c_plot["series"][0]["values"], [0.99, self.s["c"]])
         self.assertEqual([x["label"] for x in time_plot["series"]], ["serial stepping time"])
