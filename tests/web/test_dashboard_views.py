@@ -156,6 +156,16 @@ class OverviewTest(DashboardTest):
         self.assertIn(f'href="/commits/dem-master/{"c" * 40}/?machine=ws1"',
                       self.get(f"/testcases/{s['hertz'].path}/").content.decode())
 
+    def test_words_carry_the_glossary_sentence_as_tooltip(self):
+        from harness.glossary import ALL
+        from django.utils.html import escape
+
+        html = self.get(f"/testcases/{self.s['hertz'].path}/").content.decode()
+        self.assertIn(f'title="{escape(ALL["version-consistency-checked"])}">version-consistency-checked<', html)
+        self.assertIn(f'title="{escape(ALL["inconsistent"])}">inconsistent<', html)
+        overview = self.get("/").content.decode()
+        self.assertIn(f'<th class="num" title="{escape(ALL["C"])}">lowest C</th>', overview)
+
     def test_a_search_lists_the_runs_it_found(self):
         html = self.get("/?q=hooke").content.decode()
         self.assertIn("Runs found", html)

@@ -129,3 +129,11 @@ LEVEL_LABELS = {"perfect": "perfect", "good": "good", "inconsistent": "inconsist
 def level_label(value):
     """A consistency level in the glossary's words (lower case, as the CLI prints it)."""
     return LEVEL_LABELS.get(value, value)
+
+
+@register.filter
+def defined(term):
+    """The glossary's sentence for ``term``, or '' for a word it lacks (for tooltips on stored values)."""
+    from harness.glossary import ALL
+
+    return ALL.get(str(term), "")
