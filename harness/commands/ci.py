@@ -42,7 +42,7 @@ def run(args) -> int:
     counts = {s: sum(v.status == s for v in report.verdicts) for s in ("passed", "failed", "skipped")}
     print(f"ci: {len(ran.records)} runs executed ({len(ran.failed)} failed), {ran.skipped} already done; "
           f"{len(report.verdicts)} checked: {counts['passed']} passed, {counts['failed']} failed, "
-          f"{counts['skipped']} skipped; {len(report.problems)} problems; JUnit XML: {args.junit}")
+          f"{counts['skipped']} not run; {len(report.problems)} problems; JUnit XML: {args.junit}")
     builds = sorted({(v.run.target.name, v.run.build.commit) for v in report.verdicts})
     for target, commit in builds:
         page = commit_page(target, commit, args.machine)
