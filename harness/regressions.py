@@ -82,6 +82,11 @@ def histories(machine: str, target: str | None = None, pattern: str | None = Non
 
     runs = (Run.objects.filter(machine__name=machine, replaced=False).exclude(build__committed_at=None)
             .select_related("target", "testcase", "build")
+            # what a history reads (here, effective_state, compare_pair), nothing more: with 10,000 runs building
+            # the objects is most of the time, and a build's log is megabytes
+            .only("id", "name", "testcase_hash", "state", "replaced", "failure_reason", "failure_message", "finished",
+                  "stepping_time", "wall_time", "consistency", "consistency_min", "timing", "config", "machine_id",
+                  "target__name", "testcase__path", "build__commit", "build__committed_at")
             .order_by("target__name", "testcase__path", "name", "testcase_hash", "build__committed_at", "build_id"))
     if target:
         runs = runs.filter(target__name=target)
