@@ -41,6 +41,8 @@ class BrowserScaleTest(BrowserCase):
             "consistency with plots": f"/runs/{run}/consistency/",
             "compare two runs": f"/compare/?run={other}&run={run}",
             "compare builds": f"/builds/compare/?a={s['older'].build_id}&b={s['new_build'].pk}",
+            "commit page": f"/commits/dem-master/{s['new_build'].commit}/?machine=ws1",
+            "search listing runs": "/?q=bulk",
             "history with plots": f"/history/{target}/{s['inconsistent'].testcase.path}/",
             "regressions": f"/regressions/?machine={s['ws1'].pk}",
             "sweeps": "/sweeps/",
