@@ -7,6 +7,7 @@ time of the whole pass (processes included), the part the engine reports as comp
 `compile`), and cold/warm. Also the wall time of a warm 1-particle run (start-up).
 
     python benchmarks/engine_coldstart.py /tmp/old .
+    python benchmarks/engine_coldstart.py . -k crosscode      # runs whose label contains 'crosscode'
 """
 from __future__ import annotations
 
@@ -34,11 +35,11 @@ ONE_PARTICLE = [
     {"command": "run", "steps": 100}]
 
 
-def collection_pass(src: Path, cache: Path, work: Path) -> tuple[float, float]:
-    """(wall seconds, compile seconds) of every dem run of the collection."""
+def collection_pass(src: Path, cache: Path, work: Path, match: str | None = None) -> tuple[float, float]:
+    """(wall seconds, compile seconds) of every dem run of the collection (whose label contains match)."""
     env = dict(os.environ, PYTHONPATH=str(src), DEM_CACHE_DIR=str(cache))
     wall = compile_time = 0.0
-    for index, (_, case, steps) in enumerate(dem_runs(REPO / "testcases", None)):
+    for index, (_, case, steps) in enumerate(dem_runs(REPO / "testcases", match)):
         folder = work / str(index)
         shutil.copytree(case, folder)
         for k, (script, variables) in enumerate(steps):
@@ -56,6 +57,7 @@ def collection_pass(src: Path, cache: Path, work: Path) -> tuple[float, float]:
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("builds", type=Path, nargs="+")
+    parser.add_argument("-k", dest="match", help="only runs whose label contains this text")
     args = parser.parse_args()
     print(f"{'build':<28} {'cold (s)':>9} {'compile':>8} {'warm (s)':>9} {'compile':>8} {'cold/warm':>9} "
           f"{'1 particle (s)':>14}")
@@ -63,8 +65,8 @@ def main():
         with tempfile.TemporaryDirectory() as tmp:
             tmp = Path(tmp)
             shutil.copytree(build / "engine", tmp / "src" / "engine", ignore=shutil.ignore_patterns("__pycache__"))
-            cold, cold_compile = collection_pass(tmp / "src", tmp / "cache", tmp / "work")
-            warm, warm_compile = collection_pass(tmp / "src", tmp / "cache", tmp / "work")
+            cold, cold_compile = collection_pass(tmp / "src", tmp / "cache", tmp / "work", args.match)
+            warm, warm_compile = collection_pass(tmp / "src", tmp / "cache", tmp / "work", args.match)
             (tmp / "one").mkdir()
             (tmp / "one" / "scene.json").write_text(json.dumps(ONE_PARTICLE))
             env = dict(os.environ, PYTHONPATH=str(tmp / "src"), DEM_CACHE_DIR=str(tmp / "cache"))

@@ -5,9 +5,11 @@ resolved by name, so the disk cache keeps working): no return into the Python in
 loop, a few tens of nanoseconds per read.
 """
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
+
+from .jit import njit
 
 CLOCK_MONOTONIC = 1  # Linux
 

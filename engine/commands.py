@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 
 import numpy as np
 
@@ -47,10 +48,16 @@ def material_type(sim, fields: Fields, name="type") -> int:
     return t
 
 
+#: Pa, the largest Young's modulus accepted (a thousand times diamond's)
+MAX_YOUNGS_MODULUS = 1e15
+
+
 def create_material(sim, fields: Fields):
     # the pair parameter table holds (largest type)^2 entries: type numbers are labels, not a count
     t = fields.integer("type", required=True, minimum=1, maximum=MAX_MATERIAL_TYPE)
-    y = fields.number("youngs_modulus", required=True, positive=True)
+    # at most MAX_YOUNGS_MODULUS: no material comes near it (diamond 1.2e12 Pa), and the Hertz time's Y*^2 and
+    # the contact forces of larger moduli leave double precision (Y = 1e300 overflows to inf)
+    y = fields.number("youngs_modulus", required=True, positive=True, maximum=MAX_YOUNGS_MODULUS)
     nu = fields.number("poisson_ratio", required=True, minimum=0.0, maximum=0.5)
     rho = fields.number("density", required=True, positive=True)
     if y < 5e6:
@@ -346,7 +353,7 @@ def create_modifier(sim, fields: Fields):
 
 
 def create_restart(sim, fields: Fields):
-    write_restart(sim, fields.string("file", required=True))
+    write_restart(sim, fields.output_path("file", required=True))
 
 
 def fix(sim, fields: Fields):
@@ -377,6 +384,11 @@ def set_timestep(sim, fields: Fields):
                                "(create them first)")
         value = fraction * t_c
         sim.log.info(f"time step {value!r} s = {fraction:g} x critical time step {t_c:.6g} s")
+    if value < sys.float_info.min:
+        # a subnormal double keeps fewer digits than the time it is added to, down to one bit at 5e-324
+        raise fields.error("fraction_of_critical" if fraction is not None else "value",
+                           f"gives a time step of {value:g} s, below the smallest normal double "
+                           f"{sys.float_info.min:g}: the simulated time cannot resolve it")
     sim.dt = value
 
 
@@ -390,7 +402,7 @@ def set_thermo(sim, fields: Fields):
     for q in columns:
         if not quantities.known(q):
             raise fields.error("columns", f"names unknown quantity '{q}'")
-    sim.output.set_thermo(every, columns, fields.string("file", sim.output.thermo_file))
+    sim.output.set_thermo(every, columns, fields.output_path("file", sim.output.thermo_file))
 
 
 def set_timestep_check(sim, fields: Fields):
@@ -415,6 +427,17 @@ def set_velocity(sim, fields: Fields):
             raise fields.error("value", f"{value} gives a kinetic energy that is not a finite double")
     sim.state.v[mask] = value
     sim.dirty = True
+
+
+def set_blowup(sim, fields: Fields):
+    """The blow-up limits for a hard case (engine/blowup.py): ``max_overlap`` (of the smaller radius),
+    ``timestep_factor`` (times the critical time step), ``enabled`` (false: no limit at all)."""
+    overlap = fields.number("max_overlap", positive=True)
+    factor = fields.number("timestep_factor", positive=True)
+    sim.blowup_overlap = sim.blowup_overlap if overlap is None else overlap
+    sim.blowup_timestep = sim.blowup_timestep if factor is None else factor
+    if not fields.boolean("enabled", True):
+        sim.blowup_overlap = sim.blowup_timestep = math.inf
 
 
 def get(sim, fields: Fields):
@@ -446,7 +469,7 @@ CREATE = {"domain": create_domain, "material": create_material, "interaction": c
           "lattice": create_lattice, "random_packing": create_random_packing, "modifier": create_modifier,
           "restart": create_restart, "region": create_region}
 SET = {"timestep": set_timestep, "skin": set_skin, "thermo": set_thermo, "timestep_check": set_timestep_check,
-       "restart": set_restart, "velocity": set_velocity}
+       "restart": set_restart, "velocity": set_velocity, "blowup": set_blowup}
 COMMANDS = {"create": create, "get": get, "set": set_property, "fix": fix, "unfix": unfix, "run": runner.run}
 
 

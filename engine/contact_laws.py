@@ -10,7 +10,7 @@ is the force on i; j receives its negative.
 """
 from math import log, pi, sqrt
 
-from numba import njit
+from .jit import njit
 
 
 def restitution_beta(restitution):

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from . import blowup
 from .contact_laws import effective_youngs_modulus
 from .errors import RunFailure
 from .quantities import OVERLAP_WARN_RATIO
@@ -70,6 +71,7 @@ def recheck_timestep(sim, where: str, warned: set):
 
 
 def _timestep_verdicts(sim, where: str, prefix: str, t_r: float, t_h: float, warned: set):
+    blowup.check_timestep(sim, t_r, t_h, where)
     for label, t_c in (("Rayleigh", t_r), ("Hertz", t_h)):
         if sim.dt > sim.timestep_fraction * t_c and label not in warned:
             text = (f"{prefix}time step {sim.dt:g} s is {sim.dt / t_c:.3g} of the {label} time {t_c:.4g} s, "

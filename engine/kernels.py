@@ -5,9 +5,10 @@ bounded planes, cylinders with a turning surface or an extent, meshes that stand
 fields of `engine.walls.features`), gravity and periodic axes: a `Combination`. The builder fills the templates below - the
 neighbor loop, the wall loop and the step loop, each written once, after HOOMD-blue's
 ``PotentialPair<evaluator>`` - with exactly those pieces: the calls of the laws the scene names
-(`engine.models.LAWS`), their parameter columns and history slots. The source goes into a cache folder keyed
-by a hash of the engine's source and the combination and is compiled with ``@njit(cache=True)``, so a second
-run (another process) loads the machine code from disk. What the scene does not name is not in the source: no
+(`engine.models.LAWS`), their parameter columns and history slots. The source goes into a cache folder, named
+by a hash of its text, and is compiled with ``engine.jit.njit(cache=True)``: the machine code is keyed by the
+content of each function and of the functions it calls, so a second run (another process, another build of
+an engine whose kernels did not change) loads it from disk. What the scene does not name is not in the source: no
 branch in the pair loop, no history array (pair history has width 0 without a history submodel), no wall pass
 without walls, no mesh code without a mesh, no rotation code without a rotating mesh.
 
@@ -24,15 +25,15 @@ import string
 import sys
 from collections import namedtuple
 from dataclasses import dataclass
-from pathlib import Path
 
+from .jit import cache_dir
 from .models import LAWS, PARAMETERS, SUBMODELS, choices
 from .state import FIELD_NAMES
 from .walls import WALL_FIELDS
 
 #: scalars and small arrays every step reads: dt (s), characteristic velocity (m/s, Hooke), gravity (m/s^2, 3),
-#: domain lo, hi (m, 3), periodic (3 booleans), skin (m). Types that compiled code receives live in modules of
-#: the kernel source hash (the disk cache pickles them by module and name).
+#: domain lo, hi (m, 3), periodic (3 booleans), skin (m). The fields of a namedtuple that compiled code
+#: receives are part of its cache key (engine/jit.py).
 Constants = namedtuple("Constants", ["dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin"])
 
 NORMAL_MODELS = choices("normal")
@@ -283,7 +284,10 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box):
 #: the particle. A plane along an axis gives bitwise the values of a plane that knows its axis: (x - p).n adds
 #: exact zeros, and + 0.0 turns the -0.0 of sign * 0.0 into +0.0.
 PLANE_CONTACTS = """\
+near = plane_near[i]
 for w in range(nplanes):
+    if w < PLANE_BITS and (near >> w) & 1 == 0:
+        continue  # out of reach since the last rebuild: no contact, no history (PLANE_REACH)
     nx = plane_normal[w, 0]
     ny = plane_normal[w, 1]
     nz = plane_normal[w, 2]
@@ -305,6 +309,43 @@ for w in range(nplanes):
     vn = vrx * enx + vry * eny + vrz * enz
     ${contact}
 """
+#: the planes a particle can touch before the next rebuild: its centre at the last rebuild (x_build) nearer than
+#: r + skin to the plane, since it moves at most skin/2 before the next rebuild (bit w of plane_near[i] for the
+#: first PLANE_BITS planes; planes after them, and planes moving along their normal, are always tested). A plane
+#: out of reach has no contact at any force evaluation until the next rebuild, so its history is zero: set
+#: here once, as each of those evaluations would set it. Recomputed after every rebuild and at every start of
+#: run_steps (walls may have changed between runs), from x_build: the same bits on any thread count and after
+#: a restart.
+PLANE_REACH = '''\
+@njit(cache=True, error_model="numpy", parallel=PARALLEL)
+def plane_reach(s, n, walls, skin, plane_near):
+    """Bits of the planes within r + skin of each particle's centre at the last rebuild (see the template)."""
+    x_build = s.x_build
+    radius = s.radius
+    wall_hist = s.wall_hist
+    plane_point = walls.plane_point
+    plane_normal = walls.plane_normal
+    plane_vel = walls.plane_vel
+    nplanes = min(plane_point.shape[0], PLANE_BITS)
+    for i in prange(n):
+        near = 0
+        reach = radius[i] + skin
+        for w in range(nplanes):
+            nx = plane_normal[w, 0]
+            ny = plane_normal[w, 1]
+            nz = plane_normal[w, 2]
+            moving = plane_vel[w, 0] * nx + plane_vel[w, 1] * ny + plane_vel[w, 2] * nz != 0.0
+            sep = ((x_build[i, 0] - plane_point[w, 0]) * nx + (x_build[i, 1] - plane_point[w, 1]) * ny
+                   + (x_build[i, 2] - plane_point[w, 2]) * nz)
+            if moving or abs(sep) < reach:
+                near |= 1 << w
+            else:
+                for h in range(wall_hist.shape[2]):
+                    wall_hist[i, w, h] = 0.0
+        plane_near[i] = near
+'''
+PLANE_REACH_CALL = "plane_near = np.empty(n, dtype=np.int64)\nplane_reach(s, n, walls, skin, plane_near)\n"
+
 #: a bounded plane: contact only where the foot of the centre lies in the box lo..hi
 PLANE_BOUNDS = """\
 fx0 = xi0 - sep * nx
@@ -467,12 +508,15 @@ torque[i, 2] += tiz
 """
 
 #: fix nve/sphere: half kick of v and omega (I = 0.4 m r^2), drift; then the neighbor check (moved more than
-#: skin/2: rebuild; a non-finite position fails every comparison: the run stops naming the particle)
+#: skin/2: rebuild; a non-finite position fails every comparison: the run stops naming the particle). On one
+#: thread the force and torque, read for the last time here, start the next evaluation (gravity, zero) in the
+#: same pass: no separate pass over the particles to clear them
 DRIFT = """\
 for a in range(3):
     v[i, a] += half_dt * f[i, a] * inv_mass[i]
     x[i, a] += dt * v[i, a]
     omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]
+${clear}
 dx = x[i, 0] - x_build[i, 0]
 dy = x[i, 1] - x_build[i, 1]
 dz = x[i, 2] - x_build[i, 2]
@@ -490,7 +534,7 @@ elif not d2 <= half_skin_sq:
 PARTICLE_PASS = '''\
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
 def particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, kick, drift, record, wall_part, wall_tpart,
-                  half_skin_sq):
+                  half_skin_sq, plane_near):
     """Forces from the pair rows, walls, integration; see the template in engine.kernels."""
     ${unpack}
     ${unpack_walls}
@@ -516,7 +560,7 @@ def particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, kick, drift
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def drift_pass(s, n, dt, half_skin_sq):
+def drift_pass(s, n, dt, half_skin_sq, gravity):
     """The first half kick and drift of a chunk's first step. Returns (beyond skin/2, first bad or n)."""
     ${unpack}
     half_dt = 0.5 * dt
@@ -589,13 +633,14 @@ def setup(s, n, nbr, mnbr, walls, pp, c, step, lost):
     box = hi - lo
     n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)
     ${mesh_rebuild}
+    ${plane_reach_start}
     ${clear_forces}
     pair_forces(s, n, nbr, pp, dt, char_vel, box)
     record = True
     wall_part = np.zeros((n, ${nwalls}, 3))
     wall_tpart = np.zeros((n, ${nwalls}, 3))
     particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, False, False, record, wall_part, wall_tpart,
-                  0.0)
+                  0.0, plane_near)
     ${wall_force_sum}
     return n, nbr, mnbr
 
@@ -615,7 +660,8 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost):
     if nsteps == 0:
         return status, bad, done, rebuilds, n, nbr, mnbr
     t0 = now()
-    need, first_bad = drift_pass(s, n, dt, half_skin_sq)
+    ${plane_reach_start}
+    need, first_bad = drift_pass(s, n, dt, half_skin_sq, gravity)
     neigh = 0.0
     pair = 0.0
     modify = now() - t0
@@ -632,16 +678,16 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost):
         if need > 0:
             n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)
             ${mesh_rebuild}
+            ${plane_reach}
             rebuilds += 1
         t2 = now()
-        ${clear_forces}
         pair_forces(s, n, nbr, pp, dt, char_vel, box)
         t3 = now()
         record = k_step == nsteps - 1
         wall_part = np.zeros((n if record else 0, ${nwalls}, 3))
         wall_tpart = np.zeros((n if record else 0, ${nwalls}, 3))
         need, first_bad = particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, True, not record, record,
-                                        wall_part, wall_tpart, half_skin_sq)
+                                        wall_part, wall_tpart, half_skin_sq, plane_near)
         ${wall_force_sum}
         t4 = now()
         neigh += t2 - t1
@@ -696,11 +742,15 @@ MODULE = '''\
 from math import sqrt
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from engine.clock import now
+from engine.jit import njit
 from engine.neighbor import PARALLEL, rebuild
 ${imports}
+
+#: planes whose reach is kept as bits of one int64 per particle (plane_reach)
+PLANE_BITS = 62
 
 
 ${pair_forces}
@@ -710,6 +760,9 @@ ${particle_pass}
 
 
 ${clear_forces}
+
+
+${plane_reach}
 
 
 ${step_loop}
@@ -820,8 +873,10 @@ def generate_source(c: Combination) -> str:
     else:
         clear_forces = render(CLEAR_FORCES, clear="".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)))
         clear_call = "clear_forces(s, n, gravity)"
+    drift = render(DRIFT, clear="" if rows else "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force))
+                   + "torque[i, 0] = 0.0\ntorque[i, 1] = 0.0\ntorque[i, 2] = 0.0\n")
     particle_pass = render(PARTICLE_PASS, unpack=unpack, unpack_walls=unpack_walls, gather=gather, walls=walls,
-                           drift=DRIFT)
+                           drift=drift)
     move_walls = (MOVE_PLANES if c.planes else "") + (
         render(MOVE_MESHES, place=PLACE_TURNING if c.mesh_rotation else PLACE_SHIFTED,
                turn="walls.mesh_angle[m] += walls.mesh_omega[m] * dt" if c.mesh_rotation else "") if c.mesh_motion
@@ -830,7 +885,9 @@ def generate_source(c: Combination) -> str:
                        mesh_travel=MESH_TRAVEL if c.mesh_motion else "",
                        mesh_rebuild=MESH_REBUILD if c.meshes else "",
                        nwalls="walls.force.shape[0]" if has_walls else "0", clear_forces=clear_call,
-                       wall_force_sum=WALL_FORCE_SUM if has_walls else "")
+                       wall_force_sum=WALL_FORCE_SUM if has_walls else "",
+                       plane_reach=PLANE_REACH_CALL if c.planes else "",
+                       plane_reach_start=PLANE_REACH_CALL if c.planes else "plane_near = np.empty(0, dtype=np.int64)")
     called = sorted({fn for law in c.laws() for fn in law.functions}, key=lambda fn: fn.__name__)
     body = pair_forces + particle_pass + step_loop
     if "slip_velocity(" in body:
@@ -842,7 +899,8 @@ def generate_source(c: Combination) -> str:
                    mesh.shift_vertices, mesh.take_coplanar_history]
     imports = "".join(f"from {fn.__module__} import {fn.__name__}\n" for fn in called if fn.__name__ + "(" in body)
     source = render(MODULE, combination=repr(c), imports=imports, pair_forces=pair_forces,
-                    particle_pass=particle_pass, clear_forces=clear_forces, step_loop=step_loop)
+                    particle_pass=particle_pass, clear_forces=clear_forces, step_loop=step_loop,
+                    plane_reach=PLANE_REACH if c.planes else "")
     # one thread: the loops compiled serially (prange is range there)
     return source if c.parallel else source.replace("parallel=PARALLEL", "parallel=False")
 
@@ -872,24 +930,6 @@ def parameter_table(c: Combination, materials: dict, interactions: dict, ntypes:
 
 # ---------------------------------------------------------------- building and caching
 
-_SOURCES = ("kernels.py", "models.py", "contact_laws.py", "neighbor.py", "clock.py", "state.py", "walls.py",
-            "mesh.py")
-
-
-def _engine_source_hash() -> str:
-    digest = hashlib.sha256()
-    here = Path(__file__).parent
-    for name in _SOURCES:
-        digest.update((here / name).read_bytes())
-    return digest.hexdigest()
-
-
-def cache_dir() -> Path:
-    """$DEM_CACHE_DIR, else ~/.cache/dem-engine."""
-    env = os.environ.get("DEM_CACHE_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "dem-engine"
-
-
 _loaded: dict = {}
 
 
@@ -898,7 +938,9 @@ def build_kernel(c: Combination):
     if c in _loaded:
         return _loaded[c]
     source = generate_source(c)
-    key = hashlib.sha256((_engine_source_hash() + repr(c)).encode()).hexdigest()[:20]
+    # the file is named by its text; the machine code of each function in it is keyed by its content and the
+    # functions it calls (engine/jit.py): a commit that leaves both alone compiles nothing
+    key = hashlib.sha256(source.encode()).hexdigest()[:20]
     folder = cache_dir()
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"dem_kernel_{key}.py"

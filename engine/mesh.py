@@ -29,12 +29,14 @@ so that together they never close more than the skin).
 from __future__ import annotations
 
 import math
+import re
 from collections import namedtuple
 from pathlib import Path
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
+from .jit import njit
 from .neighbor import PARALLEL
 
 #: start (n+1): rows of particle i are start[i]..start[i+1]; tri (int32): the triangle of each entry; hist
@@ -68,6 +70,7 @@ def read_stl(path: str) -> np.ndarray:
     file = Path(path)
     if not file.is_file():
         raise MeshError(f"file '{path}' does not exist")
+    expected = _stl_layout(file, path)
     reader = vtk.vtkSTLReader()
     reader.SetFileName(str(file))
     reader.MergingOff()  # keep every triangle's own three points; welding is done here, exactly
@@ -91,9 +94,54 @@ def read_stl(path: str) -> np.ndarray:
     if np.any(np.diff(offsets) != 3):
         raise MeshError(f"file '{path}' has faces that are not triangles")
     triangles = points[vtk_to_numpy(polys.GetConnectivityArray()).reshape(-1, 3)]
+    if expected is not None and len(triangles) != expected:
+        raise MeshError(f"file '{path}' declares {expected} triangles but {len(triangles)} were read "
+                        "(a truncated or damaged file: a wall would silently lose faces)")
     if not np.all(np.isfinite(triangles)):
         raise MeshError(f"file '{path}' has vertices that are not finite numbers")
     return np.ascontiguousarray(triangles)
+
+
+def _stl_layout(file: Path, path: str) -> int | None:
+    """The number of triangles an STL file declares, checked against its size, before VTK reads it (VTK reads
+    the triangles that are there and says nothing of the rest).
+
+    Binary STL: an 80-byte header, a little-endian uint32 count, then 50 bytes per triangle; a file shorter
+    than 84 + 50 count bytes is cut (inside a triangle or after one). ASCII STL (starts with ``solid``, text
+    only): every ``facet`` needs its ``endfacet``, and the file its ``endsolid``."""
+    import struct
+
+    try:
+        with open(file, "rb") as handle:
+            data = handle.read()
+    except OSError as exc:
+        raise MeshError(f"file '{path}' cannot be read: {exc.strerror}") from None
+    if len(data) >= 84:
+        (count,) = struct.unpack_from("<I", data, 80)
+        if len(data) == 84 + 50 * count:
+            return count
+    text = data.lstrip()
+    if text[:5].lower() == b"solid":
+        try:
+            text.decode("ascii")
+        except UnicodeDecodeError:
+            text = None
+        if text is not None:
+            facets, ends = len(re.findall(rb"\bfacet\b", text)), len(re.findall(rb"\bendfacet\b", text))
+            if facets != ends or not re.search(rb"\bendsolid\b", text):
+                raise MeshError(f"file '{path}' is an ASCII STL file cut short ({facets} 'facet', {ends} "
+                                "'endfacet', " + ("an" if re.search(rb"\bendsolid\b", text) else "no")
+                                + " 'endsolid')")
+            return ends
+    if len(data) < 84:
+        raise MeshError(f"file '{path}' is not an STL file with triangles ({len(data)} bytes)")
+    (count,) = struct.unpack_from("<I", data, 80)
+    if len(data) < 84 + 50 * count:
+        whole = (len(data) - 84) // 50
+        raise MeshError(f"file '{path}' is a binary STL file whose header declares {count} triangles, but its "
+                        f"{len(data)} bytes hold {whole}" + (" and part of another" if (len(data) - 84) % 50 else "")
+                        + " (truncated)")
+    return None  # longer than declared: trailing bytes some exporters add; VTK reads the declared triangles
 
 
 def rotation_matrix(axis, angle: float) -> np.ndarray:

@@ -84,7 +84,7 @@ class Print(_Periodic):
 
     def __init__(self, name: str, fields: Fields):
         super().__init__(name, fields)
-        self.file = fields.string("file", required=True)
+        self.file = fields.output_path("file", required=True)
         self.names = fields.strings("quantities", required=True)
         for q in self.names:
             if not quantities.known(q):
@@ -113,8 +113,8 @@ class VtkDump(_Periodic):
 
     def __init__(self, name: str, fields: Fields):
         super().__init__(name, fields)
-        self.folder = fields.string("folder", "post")
-        self.prefix = fields.string("prefix", "particles")
+        self.folder = fields.output_path("folder", "post")
+        self.prefix = fields.output_path("prefix", "particles")
 
     def output(self, sim, start: bool):
         write_vtk(sim, self.folder, self.prefix)
@@ -127,7 +127,7 @@ class RestartWriter(_Periodic):
 
     def __init__(self, name: str, fields: Fields):
         super().__init__(name, fields)
-        self.file = fields.string("file", "restart_{step}.npz")
+        self.file = fields.output_path("file", "restart_{step}.npz")
 
     def output(self, sim, start: bool):
         if not start:

@@ -9,7 +9,10 @@ rows in one sweep. Forces are therefore bitwise the same on any number of
 threads, and the same as a serial half-list loop (engine/kernels.py).
 
 A rebuild (1) wraps periodic coordinates, (2) removes particles that left a fixed box, (3) re-orders the
-particles by cell so that neighbors are close in memory, (4) builds the list and its reverse index, and (5)
+particles by cell, the cells in Morton (Z-) order (thesis 2.4): the order of the interleaved bits of the
+cell's x, y and z numbers, so that neighbours in all three directions stay close in memory (row-major order
+keeps only those along the last axis close; at a million particles the two other axes are a row or a plane of
+cells away, beyond the caches), (4) builds the list and its reverse index, and (5)
 carries every pair's contact history over to the new list (history rows follow their pair through the
 re-ordering; a pair that swaps its i/j roles gets its history negated, since every history vector we store
 is antisymmetric in i and j). The loops over particles run on all threads; what they write depends only on
@@ -18,7 +21,9 @@ the particle, never on the thread count.
 from collections import namedtuple
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
+
+from .jit import njit
 
 from .state import reorder
 
@@ -139,8 +144,43 @@ def _cells(x, order, origin, cell_size, nc, cell_of):
         cell_of[q] = c
 
 
+#: bits per axis of a Morton code (3 x 21 = 63 bits of an int64); a grid with more cells along an axis keeps
+#: the row-major order
+MORTON_BITS = 21
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _spread(a):
+    """The bits of a (< 2^21) moved to every third position: b0 -> 0, b1 -> 3, b2 -> 6, ..."""
+    a &= 0x1FFFFF
+    a = (a | (a << 32)) & 0x1F00000000FFFF
+    a = (a | (a << 16)) & 0x1F0000FF0000FF
+    a = (a | (a << 8)) & 0x100F00F00F00F00F
+    a = (a | (a << 4)) & 0x10C30C30C30C30C3
+    a = (a | (a << 2)) & 0x1249249249249249
+    return a
+
+
+@njit(cache=True, error_model="numpy")
+def morton_code(cx, cy, cz):
+    """Morton (Z-order) code of cell (cx, cy, cz): bits interleaved x, y, z from the lowest (each < 2^21)."""
+    return (_spread(cx) << 2) | (_spread(cy) << 1) | _spread(cz)
+
+
+@njit(cache=True, error_model="numpy")
+def _morton_cells(cells, nc):
+    """The order (a permutation) of the row-major cell numbers `cells` by their Morton codes."""
+    if nc[0] > 1 << MORTON_BITS or nc[1] > 1 << MORTON_BITS or nc[2] > 1 << MORTON_BITS:
+        return np.arange(cells.shape[0])
+    key = np.empty(cells.shape[0], dtype=np.int64)
+    for m in range(cells.shape[0]):
+        c = cells[m]
+        key[m] = morton_code(c // (nc[1] * nc[2]), (c // nc[2]) % nc[1], c % nc[2])
+    return np.argsort(key, kind="mergesort")
+
+
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _candidates(cell, cell_start, nc, periodic, count):
+def _candidates(cell, cell_start, cell_end, nc, periodic, count):
     """Upper bound of each particle's neighbors j > i: the particles of its neighbor cells after it."""
     for i in prange(cell.shape[0]):
         c = cell[i]
@@ -155,12 +195,12 @@ def _candidates(cell, cell_start, nc, periodic, count):
             for qb in range(my):
                 for qc in range(mz):
                     cc = (ox[qa] * nc[1] + oy[qb]) * nc[2] + oz[qc]
-                    total += max(0, cell_start[cc + 1] - max(cell_start[cc], i + 1))
+                    total += max(0, cell_end[cc] - max(cell_start[cc], i + 1))
         count[i] = total
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _search(x, radius, cell, cell_start, nc, periodic, box, skin, slot, found, count):
+def _search(x, radius, cell, cell_start, cell_end, nc, periodic, box, skin, slot, found, count):
     """Neighbors j > i within r_i + r_j + skin into found[slot[i]:], their number into count[i]."""
     for i in prange(cell.shape[0]):
         c = cell[i]
@@ -176,7 +216,7 @@ def _search(x, radius, cell, cell_start, nc, periodic, box, skin, slot, found, c
             for qb in range(my):
                 for qc in range(mz):
                     cc = (ox[qa] * nc[1] + oy[qb]) * nc[2] + oz[qc]
-                    for j in range(max(cell_start[cc], i + 1), cell_start[cc + 1]):
+                    for j in range(max(cell_start[cc], i + 1), cell_end[cc]):
                         d0 = x[i, 0] - x[j, 0]
                         d1 = x[i, 1] - x[j, 1]
                         d2 = x[i, 2] - x[j, 2]
@@ -304,20 +344,40 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost):
     ncells = nc[0] * nc[1] * nc[2]
     cell_of = np.empty(nk, dtype=np.int64)
     _cells(x, kept, origin, cell_size, nc, cell_of)
-    # counting sort by cell: the new particle order (stable, so deterministic)
-    cell_start = np.zeros(ncells + 1, dtype=np.int64)
+    # counting sort by cell (stable, so deterministic), then the occupied cells laid out in Morton order:
+    # particles of cell c are rows cell_start[c]..cell_end[c] of the new order
+    by_cell = np.zeros(ncells + 1, dtype=np.int64)
     for q in range(nk):
-        cell_start[cell_of[q] + 1] += 1
+        by_cell[cell_of[q] + 1] += 1
+    occupied = 0
     for c in range(ncells):
-        cell_start[c + 1] += cell_start[c]
-    fill = cell_start[:-1].copy()
-    order = np.empty(nk, dtype=np.int64)
-    new_cell = np.empty(nk, dtype=np.int64)
+        occupied += by_cell[c + 1] > 0
+        by_cell[c + 1] += by_cell[c]
+    fill = by_cell[:-1].copy()
+    sorted_q = np.empty(nk, dtype=np.int64)
     for q in range(nk):
         c = cell_of[q]
-        order[fill[c]] = kept[q]
-        new_cell[fill[c]] = c
+        sorted_q[fill[c]] = q
         fill[c] += 1
+    cells = np.empty(occupied, dtype=np.int64)
+    m = 0
+    for c in range(ncells):
+        if by_cell[c + 1] > by_cell[c]:
+            cells[m] = c
+            m += 1
+    cell_start = np.zeros(ncells, dtype=np.int64)
+    cell_end = np.zeros(ncells, dtype=np.int64)
+    order = np.empty(nk, dtype=np.int64)
+    new_cell = np.empty(nk, dtype=np.int64)
+    p = 0
+    for m in _morton_cells(cells, nc):
+        c = cells[m]
+        cell_start[c] = p
+        for q in range(by_cell[c], by_cell[c + 1]):
+            order[p] = kept[sorted_q[q]]
+            new_cell[p] = c
+            p += 1
+        cell_end[c] = p
     new_index = -np.ones(n, dtype=np.int64)
     for q in range(nk):
         new_index[order[q]] = q
@@ -329,11 +389,11 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost):
     slot = np.empty(nk + 1, dtype=np.int64)
     slot[0] = 0
     count = np.empty(nk, dtype=np.int64)
-    _candidates(new_cell, cell_start, nc, periodic, count)
+    _candidates(new_cell, cell_start, cell_end, nc, periodic, count)
     for i in range(nk):
         slot[i + 1] = slot[i] + count[i]
     found = np.empty(slot[nk], dtype=np.int32)
-    _search(x, radius, new_cell, cell_start, nc, periodic, box, skin, slot, found, count)
+    _search(x, radius, new_cell, cell_start, cell_end, nc, periodic, box, skin, slot, found, count)
     new_start = np.empty(nk + 1, dtype=np.int64)
     new_start[0] = 0
     for i in range(nk):

@@ -40,13 +40,19 @@ class Output:
         return ([self.thermo_every] if self.thermo_every else []) + [m.every for m in active if m.every]
 
     def row(self, sim, columns) -> list:
-        """Values of output columns; a global quantity that is not finite stops the run (per-particle quantities
-        of an absent id are NaN by design, as is com_* without particles)."""
+        """Values of output columns; a value that is not finite stops the run before it reaches a file, naming
+        the column and the step: a particle column whose particle is not present (removed by an outlet, lost,
+        or not inserted yet), a centre of mass without particles, a global quantity gone inf or NaN."""
         values = [quantities.evaluate(sim, c) for c in columns]
         for c, value in zip(columns, values):
-            if (isinstance(value, float) and not math.isfinite(value)
-                    and quantities.PARTICLE_QUANTITY.match(c) is None
-                    and not (c.startswith("com_") and sim.n == 0)):
+            if isinstance(value, float) and not math.isfinite(value):
+                m = quantities.PARTICLE_QUANTITY.match(c)
+                if m:
+                    raise RunFailure(f"{self.where}: column '{c}': particle {m.group(2)} is not present at step "
+                                     f"{sim.step} (removed by an outlet, left the domain, or not inserted yet)")
+                if c.startswith("com_") and sim.n == 0:
+                    raise RunFailure(f"{self.where}: column '{c}': no centre of mass without particles (step "
+                                     f"{sim.step})")
                 raise RunFailure(f"{self.where}: non-finite {c} ({value}) at step {sim.step}")
         return values
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 import numpy as np
 
-from . import guards, modifiers, quantities
+from . import blowup, guards, modifiers, quantities
 from . import threads as thread_pool
 from . import state as particle_state
 from .errors import RunFailure
@@ -18,7 +18,11 @@ from .neighbor import empty_list, lost_record
 from .quantities import OVERLAP_WARN_RATIO
 from .script import Fields
 from .mesh import empty_mesh_list, mesh_rebuild
-from .walls import dense_count, features as wall_features, wall_set
+from .walls import dense_count, features as wall_features, surface_speeds, wall_set
+
+#: m/s, the largest wall surface speed a run accepts: the speed of light (1e200 m/s is finite, but the
+#: products of such a speed are not)
+MAX_WALL_SPEED = 299_792_458.0
 
 
 def combination(sim, parallel: bool = False) -> Combination:
@@ -31,6 +35,10 @@ def combination(sim, parallel: bool = False) -> Combination:
                        **wall_features(sim.walls),
                        gravity=any(mod.acceleration() is not None for mod in sim.active_modifiers()),
                        periodic=tuple(bool(p) for p in sim.periodic))
+
+
+def steps_of(fields: Fields) -> int:
+    return int(fields.data.get("steps") or 0)
 
 
 def check_ready(sim, fields: Fields):
@@ -59,6 +67,27 @@ def check_ready(sim, fields: Fields):
         problem = quantities.unknown_reference(sim, q)
         if problem:
             raise fields.error("steps", f"cannot run: quantity '{q}' {problem}")
+    end_time = sim.time + steps_of(fields) * sim.dt
+    if end_time + sim.dt == end_time:
+        raise fields.error("steps", f"cannot run: the time step {sim.dt:g} s is below the resolution of the simulated "
+                           f"time {end_time:g} s (adding it changes nothing)")
+    for w, speed in zip(sim.walls, surface_speeds(sim)):
+        if not speed <= MAX_WALL_SPEED:
+            raise fields.error("steps", f"cannot run: wall '{w['name']}' moves its surface at {speed:g} m/s, "
+                               f"faster than light ({MAX_WALL_SPEED:g} m/s; its 'velocity' or angular velocity)")
+    inserting = any(mod.kind == "insert" for mod in sim.active_modifiers())
+    for q in requested:
+        m = quantities.PARTICLE_QUANTITY.match(q)
+        if m and not inserting and int(m.group(2)) >= sim.next_id:
+            # ids are given in creation order from 1 and never reused: without an inserter it can never exist
+            raise fields.error("steps", f"cannot run: quantity '{q}' names particle {m.group(2)}, which does not "
+                               f"exist (ids so far: " + (f"1 ... {sim.next_id - 1}" if sim.next_id > 1 else "none")
+                               + "; no insert modifier is fixed)")
+    if sim.n == 0 and not inserting:
+        for q in requested:
+            if q.startswith("com_"):
+                raise fields.error("steps", f"cannot run: quantity '{q}' has no value without particles "
+                                   "(create particles or fix an insert modifier first)")
     for mod in sim.active_modifiers():
         problem = mod.problem(sim)
         if problem:
@@ -184,6 +213,7 @@ def run(sim, fields: Fields):
             overlap_warned = True
             sim.log.warning(f"step {sim.step}: {n_large} contact(s) overlap more than "
                             f"{OVERLAP_WARN_RATIO:.0%} of the smaller radius (max {worst:.1%})")
+        blowup.check_overlap(sim, worst, fields.where)
         if sim.timestep_every and sim.step % sim.timestep_every == 0:
             guards.recheck_timestep(sim, fields.where, timestep_warned)
         modifiers.change_particles(sim)

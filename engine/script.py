@@ -111,6 +111,8 @@ def evaluate_expression(expression: str, variables: dict[str, str], where: str):
         raise fail(f"gives {value!r}, not a number")
     if isinstance(value, float) and not math.isfinite(value):
         raise fail(f"gives {value!r}, not a finite number")
+    if isinstance(value, int) and value.bit_length() > 1024:  # no double holds it (and its digits may not print)
+        raise fail(f"gives an integer of {value.bit_length()} bits, beyond double precision")
     if all_ints and isinstance(value, float) and value.is_integer():
         return int(value)
     return value
@@ -280,6 +282,18 @@ class Fields:
             raise self.error(name, f"must be a string, got {_shown(value)}")
         if choices is not None and value not in choices:
             raise self.error(name, f"must be one of {', '.join(choices)}, got '{value}'")
+        return value
+
+    def output_path(self, name, default=None, required=False):
+        """A file or folder the run writes: relative to the working folder and never leaving it (not absolute,
+        no '..' part), so that a run writes only into its own folder."""
+        value = self.string(name, default, required)
+        if value is None:
+            return None
+        parts = value.replace("\\", "/").split("/")
+        if not value or value.startswith("/") or ".." in parts:
+            raise self.error(name, f"'{value[:200]}' leaves the working folder: an output path must be relative "
+                             "and without '..'")
         return value
 
     def boolean(self, name, default=None, required=False):

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import commands, modifiers
+from . import blowup, commands, modifiers
 from . import threads as thread_pool
 from . import state as particle_state
 from .log import Log
@@ -58,6 +58,8 @@ class Simulation:
         self.timestep_fraction = 0.2
         self.timestep_strict = False
         self.timestep_every = TIMESTEP_CHECK_EVERY
+        # the blow-up limits (engine/blowup.py): largest overlap / smaller radius, dt / critical time step
+        self.blowup_overlap, self.blowup_timestep = blowup.default_limits()
         # forces must be evaluated before the next step: only changes of the particle set or their velocities
         # do this; a model change (walls, gravity, materials) acts from the next step's force evaluation, so
         # a restart continues bitwise whatever the continuation script declares

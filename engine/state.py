@@ -17,7 +17,9 @@ from collections import namedtuple
 from dataclasses import dataclass
 
 import numpy as np
-from numba import literal_unroll, njit
+from numba import literal_unroll
+
+from .jit import njit
 
 
 @dataclass(frozen=True)

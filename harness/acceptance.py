@@ -20,9 +20,15 @@ The bound is ``value`` with ``rel_tol`` (fraction of |value|) and/or ``abs_tol``
      "energy_drift": {"quantity": "thermo.etotal", "rel_tol": 0.01},
      "max_overlap": {"quantity": "thermo.max_overlap", "upper": 0.1}}
 
-Every run gets the default checks ``DEFAULT_STABILITY`` - all values finite, no particle lost - unless its
-run configuration says otherwise: ``"particle_count": {"max_loss": 25}`` declares a loss (an outlet),
-``"particle_count": false`` or ``"finite": false`` drops one default, ``"stability": false`` drops both.
+Every run gets the default checks ``DEFAULT_STABILITY`` - all values finite, no particle lost, no blow-up -
+unless its run configuration says otherwise: ``"particle_count": {"max_loss": 25}`` declares a loss (an
+outlet), ``"blowup": {"max_overlap": 0.8}`` declares a hard case, ``"particle_count": false``, ``"finite":
+false`` or ``"blowup": false`` drops one default, ``"stability": false`` drops them all.
+
+``blowup``: the largest overlap / radius may not exceed ``max_overlap`` (default 0.5, the bundled engine's own
+limit, engine/blowup.py): from thermo's ``max_overlap`` column, else from what the engine adapter reports
+(the bundled engine's per-run ``max overlap`` in its log); an engine that reports neither is not checked. The
+bundled engine gets the declared limit too (``DEM_BLOWUP_MAX_OVERLAP``), so it does not stop the run first.
 A run that stops with every particle gone is thus never recorded as a success by default.
 
 ``energy_never_grows`` is for closed dissipative systems: no value may exceed the running minimum of what came
@@ -39,9 +45,28 @@ from pathlib import Path
 import numpy as np
 
 REDUCTIONS = ("end", "start", "min", "max", "mean")
-STABILITY_CHECKS = ("finite", "particle_count", "energy_never_grows", "energy_drift", "max_overlap")
+STABILITY_CHECKS = ("finite", "particle_count", "energy_never_grows", "energy_drift", "max_overlap", "blowup")
+#: the largest overlap / radius a run may reach before it counts as blown up (engine/blowup.py's default, and
+#: the reason for it there: contact laws of small overlaps; at half a radius the forces are time-step artefacts)
+BLOWUP_MAX_OVERLAP = 0.5
 #: checks every run gets unless its run configuration opts out (see the module docstring)
-DEFAULT_STABILITY = {"finite": True, "particle_count": {"max_loss": 0}}
+DEFAULT_STABILITY = {"finite": True, "particle_count": {"max_loss": 0}, "blowup": {"max_overlap": BLOWUP_MAX_OVERLAP}}
+
+
+def blowup_limit(entry: dict) -> float | None:
+    """The blow-up overlap limit a run configuration declares: a number, ``math.inf`` when it switches the
+    check off (``"blowup": false`` or ``"stability": false``), None when it declares nothing (the default)."""
+    declared = entry.get("stability", {}) if isinstance(entry, dict) else {}
+    if declared is False:
+        return math.inf
+    if not isinstance(declared, dict) or "blowup" not in declared:
+        return None
+    spec = declared["blowup"]
+    if spec is False:
+        return math.inf
+    if isinstance(spec, dict) and _is_number(spec.get("max_overlap")):
+        return float(spec["max_overlap"])
+    return None
 
 
 def stability_of(entry: dict) -> dict:
@@ -136,6 +161,10 @@ def validate(entry: dict) -> list[str]:
                 errors.append(f"{where}: must be true or false")
         elif not isinstance(spec, dict):
             errors.append(f"{where}: must be an object")
+        elif key == "blowup":
+            if set(spec) != {"max_overlap"} or not _is_number(spec["max_overlap"]) or spec["max_overlap"] <= 0:
+                errors.append(f"{where}: must be false or {{\"max_overlap\": X}} with X > 0 (largest overlap / "
+                              "radius before the run counts as blown up)")
         elif key == "particle_count":
             errors += _validate_quantity(spec.get("column", "thermo.atoms"), f"{where}.column")
             if not _is_number(spec.get("max_loss", 0)) or spec.get("max_loss", 0) < 0:
@@ -285,7 +314,24 @@ def _check_max_overlap(spec: dict, data: dict) -> Verdict:
                                     f"{where} (bound {float(spec['upper']):.4g})")
 
 
+def _check_blowup(spec: dict, data: dict) -> Verdict:
+    """The largest overlap / radius the run reached, from thermo's max_overlap column or, without one, the
+    engine's own report (``engine_log``: per run block, from the engine adapter's ``largest_overlaps``)."""
+    thermo = data.get("thermo")
+    quantity = "thermo.max_overlap" if thermo is not None and "max_overlap" in thermo.columns \
+        else "engine_log.max_overlap"
+    values, abscissa = _column(data, quantity)
+    limit = float(spec["max_overlap"])
+    worst = int(np.nanargmax(values)) if np.isfinite(values).any() else 0
+    ok = bool(values[worst] <= limit)
+    where = f" at {data[quantity.split('.')[0]].columns[0]} {abscissa[worst]:g}" if abscissa is not None else ""
+    return Verdict(ok, "stability", f"stability blowup: largest overlap {values[worst]:.3g} of the radius "
+                   f"({quantity}){where}" + (f", above the limit {limit:g}: the run blew up (a declared hard case "
+                   "relaxes it with stability.blowup.max_overlap)" if not ok else f" (limit {limit:g})"))
+
+
 _STABILITY = {
+    "blowup": _check_blowup,
     "particle_count": _check_particle_count,
     "energy_never_grows": _check_never_grows,
     "energy_drift": _check_drift,

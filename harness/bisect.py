@@ -50,13 +50,13 @@ def judge(comparison: Comparison, slower: float | None) -> tuple[str, str]:
 
 
 def bisect(target, good: str, bad: str, machine: str, pattern: str | None = None, slower: float | None = None,
-           jobs: int = 1, say=print) -> BisectResult:
+           jobs: int = 1, say=print, profile: bool = False) -> BisectResult:
     repo = gitrepo.open_repository(target.repository)
     good_commit, bad_commit = gitrepo.resolve(repo, good).hexsha, gitrepo.resolve(repo, bad).hexsha
     commits = repo.git.rev_list("--reverse", f"{good_commit}..{bad_commit}").split()
     if not commits:
         raise UserError(f"bisect: no commits between {good} and {bad} ({bad} is not a descendant of {good})")
-    options = RunOptions(machine=machine, pattern=pattern, jobs=jobs)
+    options = RunOptions(machine=machine, pattern=pattern, jobs=jobs, profile=profile)
     say(f"bisect {target.name}: {len(commits)} commits after {good_commit[:10]} up to {bad_commit[:10]}, "
         f"about {max(1, (len(commits)).bit_length())} builds")
     good_build = _run(target, good_commit, options, say)
@@ -69,9 +69,9 @@ def bisect(target, good: str, bad: str, machine: str, pattern: str | None = None
         commit = commits[index]
         build = _run(target, commit, options, say)
         if build is None:
-            result.steps.append(Step(commit, "skip", "build failed"))
+            result.steps.append(Step(commit, "skip", f"build failed: {_build_error(target, commit, machine)}"))
             result.skipped.append(commit)
-            say(f"  {commit[:10]} skip (build failed)")
+            say(f"  {commit[:10]} skip ({result.steps[-1].detail})")
             return "skip"
         comparison = compare_builds(good_build, build, machine, f"{target.name}@{good_commit[:10]}",
                                     f"{target.name}@{commit[:10]}", pattern)
@@ -104,12 +104,26 @@ def bisect(target, good: str, bad: str, machine: str, pattern: str | None = None
 
 
 def _run(target, commit: str, options: RunOptions, say):
-    """Build and run ``target`` at ``commit``; its build, or None when it cannot be built."""
+    """Build and run ``target`` at ``commit``; its build, or None when it cannot be built (its failed build
+    is stored, ``harness.builds``: a second bisect over the same commits does not build it again)."""
+    from harness.models import Build
+
     pinned = at_revision(target, commit)
     report = run_targets([pinned], options, out=_Lines(say))
-    if any("build of target" in p for p in report.problems):
-        return None  # harness.builds.BuildError, reported by run_targets
+    failed = Build.objects.filter(target__name=target.name, machine__name=options.machine, commit=commit,
+                                  definition_hash=pinned.definition_hash, status=Build.Status.FAILED).first()
+    if failed is not None or any("build of target" in p for p in report.problems):
+        return None
     return current_build(pinned, options.machine)
+
+
+def _build_error(target, commit: str, machine: str) -> str:
+    """The first error line of the stored failed build of ``target`` at ``commit`` (or a placeholder)."""
+    from harness.models import Build
+
+    build = (Build.objects.filter(target__name=target.name, machine__name=machine, commit=commit,
+                                  status=Build.Status.FAILED).order_by("-finished").first())
+    return ((build.details or {}).get("error") or "see its log") if build else "see its log"
 
 
 class _Lines:

@@ -1,6 +1,8 @@
 """``harness check``: version consistency of a target's runs against its reference target, and JUnit XML.
 
-For every run of the target's current build (``harness.builds.current_build``: the build of the commit the
+Which runs get a verdict is ``harness.coverage``'s one rule: every selected run configuration of the
+target's current build (broken ones failed with reason config, runs not executed failures of the gate unless
+``allow_missing``). For every run of the target's current build (``harness.builds.current_build``: the build of the commit the
 revision resolves to now) at the test case content of now, the reference run is chosen by
 ``harness.rules.find_reference_run``: same test case, run name and content, by the reference target. A run
 whose test case changed since it ran is stale (a failure: run it again); a reference run of other content is
@@ -19,6 +21,8 @@ from harness import junit
 from harness.adapters.base import UserError
 from harness.junit import provenance  # noqa: F401  (what a verdict was computed on; the dashboard shows it)
 from harness.builds import current_build
+from harness.coverage import covered_runs, earlier_content_run, record_selection
+from harness.testcases import CONFIG_RUN, matches
 from harness.consistency import FAILING_LEVELS, QuantityResult, compare_runs, run_level
 from harness.rules import find_reference_run, override_keys, stale_reference
 
@@ -92,7 +96,11 @@ def check_run(run, reference_target: str | None) -> list[QuantityResult]:
     return results
 
 
-def verdict_of(run, results: list[QuantityResult], has_reference_target: bool) -> RunVerdict:
+def verdict_of(run, results: list[QuantityResult], has_reference_target: bool,
+               allow_missing: bool = False) -> RunVerdict:
+    """The verdict on one covered run (``harness.coverage``). A run of the covered build that was not executed
+    fails the gate (kind ``not_executed``, or ``stale`` when a run of earlier test case content exists)
+    unless ``allow_missing``: then it is skipped, as is an outdated run."""
     overrides = _overrides(run)
     whole = overrides.get("")
     if run.state == "failed":
@@ -100,6 +108,14 @@ def verdict_of(run, results: list[QuantityResult], has_reference_target: bool) -
         if whole:
             verdict.status, verdict.overridden = "passed", [f"run failure accepted by {whole}"]
         return verdict
+    if run.state == "not_executed" and not allow_missing:
+        earlier = earlier_content_run(run)
+        if earlier is not None:
+            return RunVerdict(run, "failed", f"stale: the test case changed since this run (ran content "
+                              f"{earlier.short_hash}, now {run.short_hash}); run 'harness run {run.target.name}' "
+                              "again", "stale")
+        return RunVerdict(run, "failed", f"not executed: run 'harness run {run.target.name}' (or pass "
+                          "--allow-missing)", "not_executed")
     if run.state in ("not_executed", "outdated"):
         return RunVerdict(run, "skipped", f"run {run.get_state_display()}")
     verdict = RunVerdict(run, "passed", results=results)
@@ -124,34 +140,11 @@ def verdict_of(run, results: list[QuantityResult], has_reference_target: bool) -
     return verdict
 
 
-def stale_verdict(run, now: str) -> RunVerdict:
-    """A run whose test case changed since it ran: its result says nothing about the test case of now."""
-    return RunVerdict(run, "failed", f"stale: the test case changed since this run (ran content "
-                      f"{run.short_hash}, now {now[:10]}); run 'harness run {run.target.name}' again", "stale")
-
-
-def current_content(target) -> dict[tuple[str, str], str] | None:
-    """``{(test case path, run name): content hash}`` of the target's test cases now (None: cannot tell)."""
-    from harness.adapters import get_adapter
-    from harness.testcases import discover
-
-    try:
-        testcases, _problems = discover(target, get_adapter(target.engine))
-    except UserError:
-        return None
-    return {(t.path, e.name): t.content_hash(e.name) for t in testcases for e in t.runs if not e.problems}
-
-
-def check_targets(targets, machine: str, pattern: str | None = None) -> CheckReport:
-    """Check every run of each target's current build at the test case content of now (``pattern``: only
-    runs whose ``testcase/run`` match, as ``-k``); failed and stale runs are reported too."""
-    from django.db.models import Prefetch
-
-    from harness.models import Override
-    from harness.testcases import matches
-
-    from harness.models import Run
-
+def check_targets(targets, machine: str, pattern: str | None = None, allow_missing: bool = False) -> CheckReport:
+    """Check every selected run configuration of each target's current build at the test case content of
+    now (``pattern``: only runs whose ``testcase/run`` match, as ``-k``): the store is first brought in line
+    with the selection (``harness.coverage.record_selection``), then every covered run gets a verdict -
+    broken configurations and runs not executed included."""
     report = CheckReport()
     for target in targets:
         build = current_build(target, machine)
@@ -160,24 +153,15 @@ def check_targets(targets, machine: str, pattern: str | None = None) -> CheckRep
                                    f"{target.revision!r} on machine {machine!r} "
                                    f"(run 'harness build {target.name}' or 'harness run {target.name}')")
             continue
-        runs = (Run.objects.filter(build=build, machine__name=machine, replaced=False)
-                .select_related("testcase", "machine", "target", "build")
-                .prefetch_related(Prefetch("overrides", queryset=Override.objects.select_related("user")))
-                .order_by("testcase__path", "name"))
-        if not runs.exists():
+        record_selection(target, build, machine, pattern)
+        every = list(covered_runs(build=build, machine=machine))
+        runs = [run for run in every if matches(pattern, run.testcase.path, run.name)
+                or (run.name == CONFIG_RUN and matches(pattern, run.testcase.path, ""))]
+        if not every:
             report.problems.append(f"target {target.name!r}: no runs of its current build {build.commit[:12]} "
                                    f"on machine {machine!r} (run 'harness run {target.name}')")
-        content = current_content(target)
         stale_before = len(report.stale_references)
         for run in runs:
-            if not matches(pattern, run.testcase.path, run.name):
-                continue
-            now = content.get((run.testcase.path, run.name)) if content is not None else run.testcase_hash
-            if now is None:
-                continue  # the run configuration no longer exists
-            if now != run.testcase_hash:
-                report.verdicts.append(stale_verdict(run, now))
-                continue
             results = check_run(run, target.reference)
             if target.reference and run.consistency == "no_reference":
                 stale = stale_reference(run, target.reference)
@@ -185,7 +169,7 @@ def check_targets(targets, machine: str, pattern: str | None = None) -> CheckRep
                     report.stale_references.append(
                         f"{target.reference} {run.testcase.path}/{run.name} at {stale.build.commit[:10]} ran test "
                         f"case content {stale.short_hash}, not {run.short_hash}")
-            report.verdicts.append(verdict_of(run, results, bool(target.reference)))
+            report.verdicts.append(verdict_of(run, results, bool(target.reference), allow_missing))
         stale_count = len(report.stale_references) - stale_before
         if stale_count:
             report.problems.append(f"{stale_count} reference run(s) of {target.reference!r} are "

@@ -58,6 +58,46 @@ def kill_group(pid: int, grace: float = 2.0) -> None:
         pass
 
 
+#: environment variable carrying a per-process token: every process a run or post script starts inherits it,
+#: also one that left the session with setsid, so what is left over can be found and killed by it (the way
+#: Jenkins' process tree killer finds a build's daemons by its BUILD_ID cookie)
+TOKEN_VARIABLE = "HARNESS_RUN_TOKEN"
+
+
+def new_token() -> str:
+    import uuid
+
+    return uuid.uuid4().hex
+
+
+def kill_tagged(token: str, rounds: int = 5) -> int:
+    """SIGKILL every process whose environment holds ``HARNESS_RUN_TOKEN=token``; returns how many. Repeated
+    a few rounds: a process may fork while the first round reads ``/proc``."""
+    needle = f"{TOKEN_VARIABLE}={token}".encode()
+    me, killed = os.getpid(), 0
+    for _ in range(rounds):
+        found = 0
+        for entry in os.scandir("/proc") if os.path.isdir("/proc") else ():
+            if not entry.name.isdigit() or int(entry.name) == me:
+                continue
+            try:
+                with open(f"/proc/{entry.name}/environ", "rb") as handle:
+                    environment = handle.read()
+            except OSError:
+                continue  # gone, or another user's
+            if needle in environment.split(b"\0"):
+                try:
+                    os.kill(int(entry.name), signal.SIGKILL)
+                    found += 1
+                except (ProcessLookupError, PermissionError):
+                    pass
+        killed += found
+        if not found:
+            break
+        time.sleep(0.02)
+    return killed
+
+
 def kill_all_running() -> list[str]:
     """Kill every engine process group started by this process; returns their run folders.
 
@@ -149,6 +189,7 @@ def _run_engine_in(spec: dict, folder: Path, session: Path) -> tuple[int | None,
     # Open MPI (LIGGGHTS, LAMMPS, mpirun) keeps a session folder per user in /tmp; engines starting at the same
     # moment race to create it ("mkdir ... File exists") and one dies: each run gets its own
     env["OMPI_MCA_orte_tmpdir_base"] = str(session)
+    env[TOKEN_VARIABLE] = token = new_token()
     timeout = float(spec.get("timeout") or 600)
     with open(folder / STDOUT, "wb") as out, open(folder / STDERR, "wb") as err:
         try:
@@ -167,11 +208,13 @@ def _run_engine_in(spec: dict, folder: Path, session: Path) -> tuple[int | None,
                 process.wait()
                 return process.returncode, True
         finally:
-            # the engine may have left children behind (mpirun's ranks): they go with the group
+            # the engine may have left children behind (mpirun's ranks): they go with the group, and
+            # whatever left the group (setsid) with the token
             try:
                 os.killpg(process.pid, signal.SIGKILL)
             except (ProcessLookupError, PermissionError):
                 pass
+            kill_tagged(token)
             with _running_lock:
                 _running.pop(str(folder), None)
 
@@ -226,7 +269,9 @@ def _run_post_scripts(spec: dict, folder: Path, record: dict) -> bool:
 def _run_post_script(path: Path, folder: Path, env: dict, log, timeout: float) -> tuple[int | None, bool, bytes]:
     """(exit code or None when it cannot start, timed out, stderr). stderr goes to an unnamed file, not a
     pipe: a pipe stays open as long as any child holds it, a file is read once the script ended."""
+    env = {**env, TOKEN_VARIABLE: (token := new_token())}
     with tempfile.TemporaryFile() as err:
+        began = time.monotonic()
         try:
             process = subprocess.Popen([str(path.resolve())], cwd=folder, env=env, stdout=log, stderr=err,
                                        stdin=subprocess.DEVNULL, start_new_session=True)
@@ -241,11 +286,13 @@ def _run_post_script(path: Path, folder: Path, env: dict, log, timeout: float) -
             except subprocess.TimeoutExpired:
                 kill_group(process.pid)
                 code, timed_out = process.wait(), True
+            timed_out = timed_out or time.monotonic() - began > timeout
         finally:
             try:  # what the script left running in its group goes with it
                 os.killpg(process.pid, signal.SIGKILL)
             except (ProcessLookupError, PermissionError):
                 pass
+            kill_tagged(token)  # and what it started in a session of its own (setsid, daemons)
             with _running_lock:
                 _running.pop(key, None)
         err.seek(0)
@@ -280,11 +327,18 @@ def execute(spec: dict) -> dict:
         record["finished"] = now_iso()
         return fail(record, "config", f"cannot prepare run folder {spec['folder']}: {detail}")
     record["started"] = now_iso()
+    # what the run configuration declares to the engine itself (a relaxed blow-up limit: the adapter knows how)
+    declared = adapter.run_environment(spec.get("config") or {})
+    if declared:
+        spec = {**spec, "environment": {**(spec.get("environment") or {}), **declared}}
     start = time.perf_counter()
     code, timed_out = _run_engine(spec, folder, record)
     record["wall_time"] = time.perf_counter() - start
     record["finished"] = now_iso()
     record["exit_code"] = code
+    # a run that outlived its timeout failed, however short the timeout: the process may have ended between
+    # the moment the wait gave up and the moment it was killed, or before the first poll of a tiny timeout
+    timed_out = timed_out or record["wall_time"] > float(spec.get("timeout") or 600)
     if _interrupted.is_set():
         fail(record, "interrupted", "the harness was interrupted")
         write_record(record)
@@ -305,6 +359,14 @@ def execute(spec: dict) -> dict:
     record["warning_count"] = len(scan.warnings)
     record["warnings"] = scan.warnings[:50]
     record["stepping_time"] = runrecord.stepping_time_of(record["timing"])
+    try:
+        record["breakdown"] = adapter.read_breakdown(folder, record["timing"])
+    except UserError:
+        record["breakdown"] = {}
+    if spec.get("profile"):
+        from harness import profiles
+
+        profiles.finish(spec, folder, record)
     _classify(record, code, timed_out, scan, float(spec.get("timeout") or 600))
     if int(spec.get("repeat") or 1) > 1 and record["state"] != "failed" and record["stepping_time"]:
         _repeat(spec, folder, record, adapter)
@@ -377,6 +439,12 @@ def postprocess_run(spec: dict, folder: Path, record: dict, adapter) -> None:
         return
     record["series"].extend(stored)
     frames["thermo"] = thermo
+    overlaps = adapter.largest_overlaps(folder)
+    if overlaps:  # the engine's own report, for the default blow-up check (harness.acceptance)
+        import pandas as pd
+
+        frames.setdefault("engine_log", pd.DataFrame({"block": range(1, len(overlaps) + 1),
+                                                      "max_overlap": overlaps}))
     try:
         from harness import acceptance
     except ImportError:

@@ -6,6 +6,11 @@ builds, the folders of runs replaced by a run of newer test case content, and th
 builds. Store rows are never deleted: the runs stay listed with their results, states and consistency;
 only their files go, and the run's ``folder`` is kept so the dashboard can say where they were.
 Everything removed goes through ``Workspace.remove_tree``, which refuses paths outside the workspace.
+
+Nothing another process holds is removed: a build whose use lock (``Workspace.use_lock``, held shared by
+every ``harness run`` using the build, from planning until its runs are stored) or build lock is held, and a
+run folder whose run lock (``harness.runner``) is held, are skipped and reported. gc holds the locks it took
+while it removes, so no run of that build can start meanwhile.
 """
 from __future__ import annotations
 
@@ -22,6 +27,8 @@ class Collection:
     run_folders: list[Path] = field(default_factory=list)
     build_folders: list[Path] = field(default_factory=list)
     bytes: int = 0
+    #: what another harness process holds, left in place: "path (why)"
+    skipped: list[str] = field(default_factory=list)
 
 
 def _size(path: Path) -> int:
@@ -57,13 +64,66 @@ def collect(keep_builds: int = 2, dry_run: bool = False, machine: str | None = N
     for group in groups.values():
         keep |= kept_builds(group, keep_builds)
     old = [b.pk for b in builds if b.pk not in keep]
-    runs = Run.objects.filter(build__in=builds).exclude(folder="")
-    for run in runs.filter(Q(build_id__in=old) | Q(replaced=True)).order_by("pk"):
-        _remove(Path(run.folder), out.run_folders, out, ws, dry_run)
-    for build in builds:
-        if build.pk not in keep and build.folder:
-            _remove(Path(build.folder), out.build_folders, out, ws, dry_run)
+    runs = Run.objects.filter(build__in=builds).exclude(folder="").select_related("build", "target")
+    held: list = []
+    in_use: dict[int, bool] = {}
+
+    def free(build) -> bool:
+        """Whether no other process uses ``build``; its locks are then held by gc until the end."""
+        if build.pk not in in_use:
+            use = ws.use_lock(build.target.name, build.key)
+            building = ws.lock(f"build-{build.target.name}-{build.key}", timeout=0)
+            ok = use.acquire(exclusive=True, blocking=False)
+            if ok:
+                held.append(use)
+                ok = _try(building)
+                if ok:
+                    held.append(building)
+            in_use[build.pk] = not ok
+        return not in_use[build.pk]
+
+    try:
+        for run in runs.filter(Q(build_id__in=old) | Q(replaced=True)).order_by("pk"):
+            path = Path(run.folder)
+            if not path.exists() or not ws.contains(path):
+                continue
+            if not free(run.build):
+                out.skipped.append(f"{path} (its build {run.target.name} {run.build.key} is in use by another "
+                                   "harness process)")
+                continue
+            lock = _run_lock(ws, run.folder)
+            if not _try(lock):
+                out.skipped.append(f"{path} (another harness process is running it)")
+                continue
+            held.append(lock)
+            _remove(path, out.run_folders, out, ws, dry_run)
+        for build in builds:
+            if build.pk not in keep and build.folder and Path(build.folder).exists():
+                if not free(build):
+                    out.skipped.append(f"{build.folder} (build in use by another harness process)")
+                    continue
+                _remove(Path(build.folder), out.build_folders, out, ws, dry_run)
+    finally:
+        for lock in reversed(held):
+            lock.release()
     return out
+
+
+def _run_lock(ws, folder: str):
+    """The lock ``harness run`` holds on a run folder while it runs it (``harness.runner._run_lock``)."""
+    import hashlib
+
+    return ws.lock(f"run-{hashlib.sha1(folder.encode()).hexdigest()[:20]}", timeout=0)
+
+
+def _try(lock) -> bool:
+    from filelock import Timeout
+
+    try:
+        lock.acquire(timeout=0)
+    except Timeout:
+        return False
+    return True
 
 
 def _remove(path: Path, bucket: list, out: Collection, ws, dry_run: bool) -> None:
@@ -73,3 +133,28 @@ def _remove(path: Path, bucket: list, out: Collection, ws, dry_run: bool) -> Non
     bucket.append(path)
     if not dry_run:
         ws.remove_tree(path)
+
+
+def collect_profiles(dry_run: bool = False, machine: str | None = None) -> Collection:
+    """Remove (or list) the raw samples (``perf.data``, ``harness.profiles``) of profiled runs that are not of
+    a current build; their folded stacks (``profile.folded``, small) stay as long as the run folder does.
+
+    Raw samples are what ``perf report`` needs and can be hundreds of MB; only the current build's are kept.
+    Returned in ``run_folders``: the perf.data files removed.
+    """
+    from harness.models import Run
+    from harness.profiles import PERF_DATA
+
+    ws = workspace()
+    out = Collection()
+    runs = Run.objects.exclude(profile="").exclude(folder="").filter(build__current=False)
+    if machine:
+        runs = runs.filter(machine__name=machine)
+    for folder in runs.values_list("folder", flat=True).order_by("pk"):
+        path = Path(folder) / PERF_DATA
+        if path.is_file() and ws.contains(path):
+            out.bytes += path.stat().st_size
+            out.run_folders.append(path)
+            if not dry_run:
+                ws.remove_tree(path)
+    return out

@@ -100,3 +100,25 @@ def junit_xml(verdicts) -> str:
     root.set("time", _seconds(totals["time"]))
     ET.indent(root)
     return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+
+
+def build_failure_suite(build) -> ET.Element:
+    """A ``<testsuite>`` ``TARGET/build`` with the one failing test case ``build`` of a failed build
+    (``harness.builds``): the target's runs cannot execute, so CI sees the build as the failure, with the
+    first error line as the message and the log tail as output. Append it to ``junit_xml``'s root for
+    every target whose current build failed."""
+    details = build.details or {}
+    message = details.get("error") or "build failed"
+    suite = ET.Element("testsuite", name=_text(f"{build.target.name}/build"), tests="1", failures="1",
+                       errors="0", skipped="0", time=_seconds(build.duration))
+    properties = ET.SubElement(suite, "properties")
+    for name, value in (("target", build.target.name), ("target_commit", build.commit)):
+        ET.SubElement(properties, "property", name=name, value=_text(value))
+    case = ET.SubElement(suite, "testcase", name="build", classname=_text(f"{build.target.name}.build"),
+                         time=_seconds(build.duration))
+    failure = ET.SubElement(case, "failure", type="build_failed", message=_text(message[:2000]))
+    failure.text = _text(message)
+    tail = "\n".join((build.log or "").strip().splitlines()[-40:])
+    ET.SubElement(case, "system-out").text = _text(f"{build.target.name} at {build.commit[:10]}: build failed "
+                                                   f"after {_seconds(build.duration)} s\n--- log tail ---\n{tail}")
+    return suite

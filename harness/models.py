@@ -7,7 +7,7 @@ Artifacts stay on disk in the run folder; the store keeps what lists, plots and 
 from django.conf import settings
 from django.db import models
 
-from harness.queries import RunQuerySet, SeriesQuerySet
+from harness.queries import BuildQuerySet, RunQuerySet, SeriesQuerySet
 
 
 class Machine(models.Model):
@@ -59,6 +59,11 @@ class Build(models.Model):
     current = models.BooleanField(default=False, db_index=True,
                                   help_text="the build of the commit the target's revision resolved to when "
                                             "last asked (one per target and machine; harness.builds)")
+    objects = BuildQuerySet.as_manager()
+
+    details = models.JSONField(default=dict, blank=True,
+                               help_text="what the recipe recorded: duration_s, error (first error line), "
+                                         "compiler, jobs, commands, cmake_options, env, patches, ccache")
 
     class Meta:
         constraints = [models.UniqueConstraint(fields=["target", "machine", "commit", "definition_hash"],
@@ -71,6 +76,15 @@ class Build(models.Model):
     def key(self) -> str:
         """Short folder-safe name of the build: commit and definition hash prefixes."""
         return f"{self.commit[:12]}-{self.definition_hash[:8]}"
+
+    @property
+    def duration(self) -> float | None:
+        """Build time in seconds (None while building or for builds recorded without it)."""
+        if (self.details or {}).get("duration_s") is not None:
+            return self.details["duration_s"]
+        if self.started and self.finished:
+            return (self.finished - self.started).total_seconds()
+        return None
 
 
 class TestCase(models.Model):
@@ -138,6 +152,13 @@ class Run(models.Model):
                                       help_text="s, the engine's own time stepping (its loop time: no start-up, "
                                                 "no JIT compilation); what speed trends and comparisons use")
     timing = models.JSONField(default=dict, help_text="s per category: pair, neigh, comm, modify, output, other, total")
+    breakdown = models.JSONField(default=dict, blank=True,
+                                 help_text="the timing breakdown in the harness' sections, s with min/avg/max over "
+                                           "ranks where the code prints them, ranks and load imbalance "
+                                           "(harness.breakdown)")
+    profile = models.CharField(max_length=200, blank=True, default="",
+                               help_text="the run's sampling profile as folded stacks, a file in its run folder "
+                                         "(harness.profiles); blank: not profiled")
     warning_count = models.IntegerField(default=0)
     consistency = models.CharField(max_length=16, choices=Consistency.choices, blank=True, default="")
     consistency_min = models.FloatField(null=True, blank=True, help_text="lowest C over all quantities")

@@ -245,6 +245,19 @@ def stepping_changes(builds) -> dict:
     return out
 
 
+class BuildQuerySet(models.QuerySet):
+    """Builds, for the overview's failures and the build page."""
+
+    def unresolved_failures(self):
+        """Failed builds (not interrupted) newer than their target's current build on that machine, or of a
+        target with no current build there: what the overview shows as a target that does not build."""
+        current = self.model.objects.filter(target_id=OuterRef("target_id"), machine_id=OuterRef("machine_id"),
+                                            current=True, finished__gte=OuterRef("finished"))
+        not_interrupted = Q(details__interrupted__isnull=True) | Q(details__interrupted=False)
+        return (self.filter(not_interrupted, status="failed").exclude(Exists(current))
+                .select_related("target", "machine").order_by("machine__name", "target__name", "-finished"))
+
+
 class RunQuerySet(models.QuerySet):
     """Runs, with the aggregations the dashboard lists need."""
 

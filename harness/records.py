@@ -14,7 +14,9 @@ from datetime import datetime
 from pathlib import Path
 
 from harness import runrecord
+from harness.breakdown import from_timing as breakdown_from_timing
 from harness.adapters.base import UserError
+from harness.rules import SUCCESS_STATES
 from harness.runrecord import RECORD_FILE, finite
 
 
@@ -24,13 +26,27 @@ def _when(value):
     return datetime.fromisoformat(value) if isinstance(value, str) else value
 
 
-def store_record(record: dict, imported: bool = False):
-    """Create or update the Run (and its machine, target, build, test case, series) a record describes."""
+def store_record(record: dict, imported: bool = False, only_new: bool = False):
+    """Create or update the Run (and its machine, target, build, test case, series) a record describes.
+
+    ``only_new``: store it only when no run of that identity is stored yet (the stored one is returned as it
+    is); a run another process stores at the same moment wins (``harness.coverage``)."""
+    from django.db import IntegrityError
+
+    record = finite(record)
+    if only_new:
+        try:
+            return _store(record, imported, only_new)
+        except IntegrityError:  # inserted meanwhile by another process (PostgreSQL's unique constraint)
+            return None
+    return _store(record, imported, only_new)
+
+
+def _store(record: dict, imported: bool, only_new: bool):
     from django.db import transaction
 
     from harness.models import Build, Machine, Run, Series, Target, TestCase
 
-    record = finite(record)
     with transaction.atomic():
         machine = Machine.objects.get_or_create(name=record["machine"])[0]
         target, created = Target.objects.get_or_create(name=record["target"])
@@ -54,6 +70,11 @@ def store_record(record: dict, imported: bool = False):
             _adopt_imported_build(build)
         testcase = TestCase.objects.get_or_create(path=record["testcase"])[0]
         content = record.get("testcase_hash") or ""
+        if only_new:
+            stored = Run.objects.filter(machine=machine, build=build, testcase=testcase, name=record["run"],
+                                        testcase_hash=content).first()
+            if stored is not None and not stored.replaced:
+                return stored  # a replaced (outdated) run of this content comes back as not executed
         fields = dict(
             target=target, state=record["state"], failure_reason=record.get("failure_reason", ""),
             failure_message=record.get("failure_message", ""), config=record.get("config") or {},
@@ -61,7 +82,10 @@ def store_record(record: dict, imported: bool = False):
             exit_code=record.get("exit_code"), started=_when(record.get("started")),
             finished=_when(record.get("finished")), wall_time=record.get("wall_time"),
             stepping_time=record.get("stepping_time", runrecord.stepping_time_of(record.get("timing"))),
-            timing=record.get("timing") or {}, warning_count=record.get("warning_count", 0),
+            # a record written before breakdowns existed: its timing's sections (as migration 0005 fills them)
+            timing=record.get("timing") or {},
+            breakdown=record.get("breakdown") or breakdown_from_timing(record.get("timing") or {}),
+            profile=record.get("profile") or "", warning_count=record.get("warning_count", 0),
             consistency="", consistency_min=None, reference_run=None, replaced=False)
         run, _ = Run.objects.update_or_create(machine=machine, build=build, testcase=testcase,
                                               name=record["run"], testcase_hash=content, defaults=fields)
@@ -157,6 +181,8 @@ def import_folder(folder: Path, machine: str | None = None, replace: bool = Fals
     The record's folder is set to where the run folder is now. Returns (stored runs, problems): a record
     that does not validate, or conflicts with a stored one (unless ``replace``), is a problem and skipped.
     """
+    from django.db import DatabaseError
+
     folder = Path(folder)
     if not folder.is_dir():
         raise UserError(f"{folder}: not a folder")
@@ -170,9 +196,19 @@ def import_folder(folder: Path, machine: str | None = None, replace: bool = Fals
         record["folder"] = str(path.parent.resolve())
         if machine:
             record["machine"] = machine
+        where = runrecord.null_values(record)
+        if where and record["state"] in SUCCESS_STATES:
+            # a success holding non-finite values is what this harness fails as non_finite (harness.execute)
+            record.update(state="failed", failure_reason="non_finite",
+                          failure_message=f"imported with non-finite (null) values in {where}")
+            problems.append(f"{path}: $.series: non-finite (null) values in {where}; imported as failed "
+                            "(non_finite)")
         differs = conflict(record)
         if differs and not replace:
             problems.append(f"{path}: conflict: {differs}; not imported (--replace to replace the stored run)")
             continue
-        runs.append(store_record(record, imported=True))
+        try:
+            runs.append(store_record(record, imported=True))
+        except DatabaseError as exc:  # what the store refuses is this record's problem, not the others'
+            problems.append(f"{path}: the store refused it: {str(exc).strip().splitlines()[0][:200]}")
     return runs, problems

@@ -123,3 +123,34 @@ def histories(machine: str, target: str | None = None, pattern: str | None = Non
         history.changes.sort(key=lambda c: next(i for i, p in enumerate(history.points) if p[0] == c.commit))
         out.append(history)
     return out
+
+
+@dataclass
+class BuildTime:
+    target: str
+    commit: str
+    committed_at: object
+    status: str          # complete, failed, building
+    seconds: float | None
+    error: str           # first error line of a failed build
+    ccache_hits: int | None
+
+
+def build_times(machine: str, target: str | None = None) -> list[BuildTime]:
+    """Every build of ``target`` (all targets) on ``machine`` with its build time, ordered by commit date -
+    failed builds too, which have no runs and so no history above. The time is the recipe's (export,
+    configure, compile, link); a build through a warm ccache shows as a drop."""
+    from harness.models import Build
+
+    builds = (Build.objects.filter(machine__name=machine).exclude(target__definition__recipe="system")
+              .select_related("target").order_by("target__name", "committed_at", "id"))
+    if target:
+        builds = builds.filter(target__name=target)
+    out = []
+    for build in builds:
+        stats = (build.details or {}).get("ccache_stats") or {}
+        hits = (stats.get("direct_cache_hit", 0) + stats.get("preprocessed_cache_hit", 0)) if stats else None
+        out.append(BuildTime(build.target.name, build.commit, build.committed_at, build.status, build.duration,
+                             (build.details or {}).get("error", "") if build.status == Build.Status.FAILED else "",
+                             hits))
+    return out

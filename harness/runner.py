@@ -24,6 +24,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from harness import execute as ex
+from harness import scaling
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
 from harness.builds import build_target
@@ -46,6 +47,7 @@ class RunOptions:
     force_build: bool = False
     #: executions of each run whose stepping times are kept (``harness run --repeat N``)
     repeat: int = 1
+    profile: bool = False              # record a profile of every run (harness.profiles)
 
 
 @dataclass
@@ -63,6 +65,8 @@ class RunReport:
     problems: list[str] = field(default_factory=list)
     skipped: int = 0
     elapsed: float = 0.0
+    #: the builds in use (``Workspace.use_lock``, shared) until the runs are stored: ``harness gc`` skips them
+    in_use: list = field(default_factory=list)
 
     @property
     def failed(self) -> list[dict]:
@@ -131,7 +135,8 @@ def make_spec(target: TargetDefinition, build_info: dict, adapter, machine: str,
         "machine": machine, "target": target.name, "target_definition": target.as_dict(),
         "build": build_info, "testcase": testcase.path, "run": entry.name, "testcase_hash": content,
         "config": config, "adapter": adapter.name, "thermo_columns": mapping,
-        "environment": build_info["environment"], "workspace": str(workspace().home),
+        "environment": {**build_info["environment"], **scaling.thread_environment(config)},
+        "workspace": str(workspace().home),
         "folder": str(run_folder(machine, target.name, build_info["key"], testcase.path, entry.name, content)),
         "source_folder": str(testcase.folder), "files": testcase.files(), "timeout": entry.timeout,
         "command": [],
@@ -150,16 +155,39 @@ def _needs_run(existing, options: RunOptions) -> bool:
         return True
     if state == "failed":
         return options.rerun_failed or existing.failure_reason in ("interrupted", "dependency")
-    return False
+    return options.profile and not existing.profile  # --profile: a run recorded without one runs again
+
+
+def _build_in_use(target: TargetDefinition, options: RunOptions, report: RunReport, say):
+    """Build (or find) the target's build and hold its use lock: once held, ``harness gc`` leaves the build
+    and its run folders alone; a build gc removed just before is built again."""
+    from harness.builds import DONE_MARKER
+
+    force = options.force_build
+    while True:
+        build = build_target(target, options.machine, force=force, log=say)
+        lock = workspace().use_lock(target.name, build.key)
+        lock.acquire()
+        if not build.folder or (Path(build.folder) / DONE_MARKER).is_file():
+            report.in_use.append(lock)
+            return build
+        lock.release()  # removed between the build and the lock
+        force = False
 
 
 def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport, say) -> list[Task]:
     """Build the target, discover its test cases and choose the runs to execute."""
     from harness.models import Run
 
-    build = build_target(target, options.machine, force=options.force_build, log=say)
+    from harness.coverage import record_selection
+
+    build = _build_in_use(target, options, report, say)
     adapter = get_adapter(target.engine)
     testcases, problems = discover(target, adapter, options.working_tree)
+    # every selected run configuration is in the store before any runs: one killed before it started is
+    # still there, not executed (harness.coverage)
+    record_selection(target, build, options.machine, options.pattern, options.working_tree,
+                     discovered=(testcases, problems))
     report.problems.extend(problems)
     info = _build_info(build)
     # a run is the same run only at the same test case content: an edited scene is run again
@@ -177,6 +205,10 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
         spec = make_spec(target, info, adapter, options.machine, testcase, entry)
         if options.repeat > 1:
             spec["repeat"] = options.repeat
+        if (options.profile or entry.config.get("profile")) and not entry.problems:
+            from harness import profiles
+
+            profiles.enable(spec, adapter, entry.config.get("profile"))
         previous = existing.get((testcase.path, entry.name, spec["testcase_hash"]))
         if entry.problems:
             report.problems.extend(entry.problems)
@@ -478,15 +510,20 @@ def run_targets(targets: list[TargetDefinition], options: RunOptions, out=None) 
     report = RunReport()
     tasks: list[Task] = []
     say = (lambda text: (out.write(text + "\n"), out.flush()))
-    for target in targets:
-        try:
-            tasks.extend(plan_target(target, options, report, say))
-        except UserError as exc:
-            report.problems.append(str(exc))
-    for problem in report.problems:
-        out.write(f"harness: {problem}\n")
     started = time.perf_counter()
-    execute_tasks(tasks, options, report, out)
+    try:
+        for target in targets:
+            try:
+                tasks.extend(plan_target(target, options, report, say))
+            except UserError as exc:
+                report.problems.append(str(exc))
+        for problem in report.problems:
+            out.write(f"harness: {problem}\n")
+        started = time.perf_counter()
+        execute_tasks(tasks, options, report, out)
+    finally:
+        for lock in report.in_use:
+            lock.release()
     report.elapsed = time.perf_counter() - started
     return report
 

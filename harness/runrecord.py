@@ -31,7 +31,8 @@ class RunRecord:
     """One run. Times are ISO 8601 strings (UTC); ``wall_time`` in s (engine process, start-up and JIT
     compilation included); ``stepping_time`` in s (the engine's own loop time, ``stepping_time_of``);
     ``timing`` in s per category (pair, neigh, comm, modify, output, other, total, and what the engine
-    adds)."""
+    adds); ``breakdown`` the same in the harness' sections with min/avg/max over ranks (``harness.breakdown``);
+    ``profile`` the folded-stacks file of a profiled run, relative to its folder (``harness.profiles``)."""
 
     machine: str
     target: str
@@ -53,6 +54,8 @@ class RunRecord:
     wall_time: float | None = None
     stepping_time: float | None = None
     timing: dict = field(default_factory=dict)
+    breakdown: dict = field(default_factory=dict)
+    profile: str = ""
     warning_count: int = 0
     warnings: list = field(default_factory=list)
     series: list = field(default_factory=list)
@@ -145,7 +148,63 @@ def validate(data) -> list[str]:
                         f"({RECORD_VERSION})")
     for i, series in enumerate(data.get("series", [])):
         problems += _series_problems(series, f"$.series[{i}]")
+    problems += _length_problems(data)
+    nul = _nul_path(data, "$")
+    if nul:  # PostgreSQL's text and jsonb cannot hold U+0000: no store takes it, so that both stores agree
+        problems.append(f"{nul}: holds a NUL character (U+0000)")
     return problems
+
+
+def _length_problems(data: dict) -> list[str]:
+    """Texts longer than the store's columns hold (harness/models.py): PostgreSQL refuses them, SQLite would
+    keep them; both stores refuse the record so that they agree."""
+    try:
+        from harness.models import Build, Series, TestCase
+    except Exception:  # noqa: BLE001 - without a configured store there is no column to compare with
+        return []
+    limits = [("$.testcase", data.get("testcase"), TestCase, "path")]
+    build = data.get("build") if isinstance(data.get("build"), dict) else {}
+    limits += [(f"$.build.{key}", build.get(key), Build, key) for key in ("commit", "definition_hash", "revision")]
+    from harness.models import Run
+
+    limits.append(("$.testcase_hash", data.get("testcase_hash"), Run, "testcase_hash"))
+    for i, series in enumerate(data.get("series", [])):
+        if isinstance(series, dict):
+            limits += [(f"$.series[{i}].{key}", series.get(key), Series, key) for key in ("name", "x_column")]
+    problems = []
+    for where, value, model, field in limits:
+        limit = model._meta.get_field(field).max_length
+        if isinstance(value, str) and limit and len(value) > limit:
+            problems.append(f"{where}: {len(value)} characters, more than the store holds ({limit})")
+    return problems
+
+
+def _nul_path(value, where: str) -> str | None:
+    """JSON path of the first string (value or key) holding U+0000 in ``value``, or None."""
+    if isinstance(value, str):
+        return where if "\x00" in value else None
+    if isinstance(value, dict):
+        for key, item in value.items():
+            if "\x00" in key:
+                return f"{where} key {key[:40]!r}"
+            found = _nul_path(item, f"{where}.{key}")
+            if found:
+                return found
+    elif isinstance(value, list):
+        for i, item in enumerate(value):
+            found = _nul_path(item, f"{where}[{i}]")
+            if found:
+                return found
+    return None
+
+
+def null_values(data: dict) -> str | None:
+    """Where a record's series hold a null (a non-finite value written as null): ``"thermo.ke"``, or None."""
+    for series in data.get("series", []):
+        for name, values in (series.get("columns") or {}).items():
+            if any(v is None for v in values):
+                return f"{series.get('name')}.{name}"
+    return None
 
 
 def _series_problems(series, where: str) -> list[str]:

@@ -32,20 +32,35 @@ def database_from_url(url: str) -> dict:
     a Unix socket ``postgresql://user@/db?host=/run/postgresql``, or ``sqlite:////path/store.sqlite3``."""
     import dj_database_url
 
+    example = "postgresql://user@host:5432/dbname or sqlite:////path/store.sqlite3"
+    if "://" not in url:
+        raise ValueError(f"HARNESS_DATABASE_URL: not a database URL ({example})")
     try:
         config = dj_database_url.parse(url)
     except ValueError as exc:
+        if str(exc).startswith("Scheme"):
+            raise ValueError(f"HARNESS_DATABASE_URL: unknown scheme {url.split('://', 1)[0][:20]!r} "
+                             f"({example})") from None
         raise ValueError(f"HARNESS_DATABASE_URL: {exc}") from None
     if config["ENGINE"] not in ("django.db.backends.postgresql", "django.db.backends.sqlite3"):
         raise ValueError(f"HARNESS_DATABASE_URL: unsupported database {config['ENGINE'].rsplit('.', 1)[-1]!r} "
                          "(postgresql or sqlite)")
+    if config["ENGINE"].endswith("postgresql") and not config.get("NAME") \
+            and not (config.get("OPTIONS") or {}).get("service"):
+        raise ValueError("HARNESS_DATABASE_URL: names no database (postgresql://user@host:5432/DBNAME)")
+    if config["ENGINE"].endswith("sqlite3") and config.get("NAME") in (None, "", ":memory:"):
+        raise ValueError("HARNESS_DATABASE_URL: names no database file (an in-memory store keeps nothing; "
+                         "sqlite:////absolute/path/store.sqlite3)")
     if config["ENGINE"].endswith("sqlite3"):
         config["OPTIONS"] = {**SQLITE_OPTIONS, **config.get("OPTIONS", {})}
     return config
 
 
 if os.environ.get("HARNESS_DATABASE_URL"):
-    DATABASES = {"default": database_from_url(os.environ["HARNESS_DATABASE_URL"])}
+    try:
+        DATABASES = {"default": database_from_url(os.environ["HARNESS_DATABASE_URL"])}
+    except ValueError as exc:  # one line for the CLI, manage.py, the dashboard's servers alike: no traceback
+        raise SystemExit(f"harness: error: {exc}") from None
 else:
     workspace().home.mkdir(parents=True, exist_ok=True)
     DATABASES = {"default": {"ENGINE": "django.db.backends.sqlite3", "NAME": str(workspace().database),

@@ -35,4 +35,6 @@ def setup_store(migrate: bool = True) -> None:
             ensure_schema()
         except SchemaBehind as exc:
             raise UserError(f"store: {exc}") from None
+        except ImproperlyConfigured as exc:  # what only the database backend checks, as it connects
+            raise UserError(f"HARNESS_DATABASE_URL: {str(exc).splitlines()[0]}") from None
     _ready = True

@@ -9,12 +9,43 @@ A target is a named build of a DEM code at a git revision. Fields (all optional 
     tag, branch, commit or ``HEAD`` (default ``HEAD``); GitPython resolves it to a commit.
 ``recipe``
     how to build: ``dem`` (the bundled engine, ``engine/`` exported at the commit), ``make``
-    (``make <make_target>`` in ``source_folder``) or ``system`` (an installed ``executable``). Inferred from
-    ``make_target`` / ``executable`` when absent, else ``dem``.
+    (``make <make_target>`` in ``source_folder``), ``cmake`` (configure ``source_folder`` into a build folder
+    and build it) or ``system`` (an installed ``executable``). Inferred from ``make_target`` / ``executable``
+    when absent, else ``dem``.
 ``source_folder``
-    folder inside the repository that is built (``dem``: default ``engine``; ``make``: default ``.``).
+    folder inside the repository that is built (``dem``: default ``engine``; ``make``: default ``.``;
+    ``cmake``: the folder holding ``CMakeLists.txt``, default ``.``).
 ``make_target``, ``make_variables``, ``generated_executable``
-    for ``make``: ``make <make_target> NAME=VALUE...``; the program it leaves in ``source_folder``.
+    for ``make``: ``make <make_target> NAME=VALUE...``; the program it leaves in ``source_folder``. For
+    ``cmake``, ``generated_executable`` is the program's path in the build folder.
+``configure``
+    for ``make``: shell commands run in ``source_folder`` before ``make`` (e.g. ``make stubs``).
+``cmake_options``, ``build_type``, ``build_targets``
+    for ``cmake``: ``-DNAME=VALUE`` options (an object), ``CMAKE_BUILD_TYPE`` (default ``Release``) and the
+    targets ``cmake --build`` builds (default: all).
+``prebuild``, ``postbuild``
+    shell commands run in the exported tree before the build starts and after it succeeded.
+``env``
+    environment variables of every build command (e.g. ``{"CXXFLAGS": "-O2"}``).
+``jobs``
+    parallel compile jobs (default: the machine's cores; ``harness build -j N`` overrides it).
+``ccache``
+    compile through ccache with its cache in the workspace (``<workspace>/ccache``), so that a commit next to
+    a built one compiles only what changed; default true when ``ccache`` is installed.
+``export``
+    folders taken from the commit (default: ``source_folder``; ``["."]`` for the whole tree).
+``requires``
+    what the build needs, checked before anything starts: a string names an executable (and the Debian
+    package of the same name), an object ``{"executable": ..., "package": ...}`` or ``{"package": ...}``.
+``patches``
+    per range of commits: ``{"from": REV, "before": REV, "files": [...], "env": {...}, "cmake_options":
+    {...}}``. An entry applies to a commit that descends from ``from`` (or is it) and does not descend from
+    ``before`` (both optional); its patch files (relative to the targets folder, applied with ``-p1`` to
+    the exported tree) are applied in order and its ``env`` / ``cmake_options`` added. The patch files'
+    content is part of the definition hash.
+``on_demand``
+    true: the target is built, run and checked only when named on the command line (a cold build costs
+    minutes); ``harness build`` without names skips it.
 ``executable``
     for ``system``: an absolute path or a name looked up on PATH (e.g. ``/usr/bin/liggghts``).
 ``engine``
@@ -55,15 +86,21 @@ from harness.jsonfile import Problems, expect_type, json_path, load_json, non_fi
 from harness.workspace import PROJECT_ROOT, segment_problem
 
 WORKING_TREE = "working-tree"
-RECIPES = ("dem", "make", "system")
+RECIPES = ("dem", "make", "cmake", "system")
 KNOWN_KEYS = {
     "repository", "revision", "recipe", "source_folder", "make_target", "make_variables", "make_jobs",
     "generated_executable", "executable", "engine", "testcases", "testcases_repository", "testcases_revision",
     "reference", "thermo_columns", "mpi_launcher", "description", "commit_url",
+    "configure", "cmake_options", "build_type", "build_targets", "prebuild", "postbuild", "env", "jobs",
+    "ccache", "export", "requires", "patches", "on_demand",
 }
 #: fields that change the binary; the build cache is keyed by their hash and the commit
 BUILD_KEYS = ("repository", "recipe", "source_folder", "make_target", "make_variables", "generated_executable",
               "executable")
+#: build fields added later: hashed only when a definition sets them, so older targets keep their builds
+OPTIONAL_BUILD_KEYS = ("configure", "cmake_options", "build_type", "build_targets", "prebuild", "postbuild",
+                       "env", "export", "patches")
+PATCH_KEYS = {"from", "before", "files", "env", "cmake_options"}
 
 
 def targets_dir() -> Path:
@@ -91,17 +128,44 @@ class TargetDefinition:
     executable: str | None = None
     thermo_columns: dict = field(default_factory=dict)
     mpi_launcher: list[str] = field(default_factory=lambda: ["mpirun"])
+    configure: list[str] = field(default_factory=list)
+    cmake_options: dict = field(default_factory=dict)
+    build_type: str = "Release"
+    build_targets: list[str] = field(default_factory=list)
+    prebuild: list[str] = field(default_factory=list)
+    postbuild: list[str] = field(default_factory=list)
+    env: dict = field(default_factory=dict)
+    jobs: int | None = None
+    ccache: bool | None = None
+    export: list[str] = field(default_factory=list)
+    requires: list[dict] = field(default_factory=list)
+    #: [{"from", "before", "files": [Path], "env", "cmake_options"}]
+    patches: list[dict] = field(default_factory=list)
+    on_demand: bool = False
     #: the revision was given on the command line (``TARGET@REV``): its build does not become the current one
     explicit_revision: bool = False
 
     @property
     def definition_hash(self) -> str:
-        """sha256 of the build-relevant fields (the build cache key together with the commit)."""
+        """sha256 of the build-relevant fields (the build cache key together with the commit); the patch
+        files count by their content."""
         relevant = {key: getattr(self, key) for key in BUILD_KEYS}
+        for key in OPTIONAL_BUILD_KEYS:
+            if key in self.raw:
+                relevant[key] = self.raw[key]
+        if self.patches:
+            relevant["patch_content"] = [[_file_digest(f) for f in entry["files"]] for entry in self.patches]
         return hashlib.sha256(json.dumps(relevant, sort_keys=True).encode()).hexdigest()
 
     def as_dict(self) -> dict:
         return dict(self.raw)
+
+
+def _file_digest(path: Path) -> str:
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError as exc:
+        raise UserError(f"{path}: {exc.strerror or exc}") from None
 
 
 def _enclosing_repository(path: Path) -> Path:
@@ -150,6 +214,18 @@ def parse_target(name: str, data, path: Path) -> TargetDefinition:
         for key in ("make_target", "generated_executable"):
             if key not in data:
                 problems.add(json_path(key), "required for the make recipe")
+    if recipe == "cmake" and "generated_executable" not in data:
+        problems.add(json_path("generated_executable"), "required for the cmake recipe (the program's path "
+                     "in the build folder)")
+    if recipe not in ("make", "cmake"):
+        for key in ("configure", "cmake_options", "build_type", "build_targets", "prebuild", "postbuild", "env",
+                    "jobs", "ccache", "export", "requires", "patches"):
+            if key in data:
+                problems.add(json_path(key), f"only for the make and cmake recipes (this target's is {recipe!r})")
+    for key in ("configure", "cmake_options", "build_type", "build_targets"):
+        if key in data and recipe in ("make", "cmake") and recipe != ("make" if key == "configure" else "cmake"):
+            problems.add(json_path(key), f"only for the {'make' if key == 'configure' else 'cmake'} recipe")
+    _build_field_problems(problems, data, path)
     if recipe == "system" and "executable" not in data:
         problems.add(json_path("executable"), "required for the system recipe")
     testcases = data.get("testcases", ["testcases"])
@@ -183,12 +259,20 @@ def parse_target(name: str, data, path: Path) -> TargetDefinition:
     problems.raise_if_any()
 
     base = path.resolve().parent.parent
+    patches = [{"from": entry.get("from"), "before": entry.get("before"),
+                "files": [(path.resolve().parent / f).resolve() for f in entry.get("files", [])],
+                "env": {k: str(v) for k, v in entry.get("env", {}).items()},
+                "cmake_options": {k: str(v) for k, v in entry.get("cmake_options", {}).items()}}
+               for entry in data.get("patches", [])]
+    requires = [{"executable": item, "package": item} if isinstance(item, str) else dict(item)
+                for item in data.get("requires", [])]
+    source_folder = data.get("source_folder", "engine" if recipe == "dem" else ".")
     revision = data.get("revision", "HEAD")
     repository = _resolve_repository(data.get("repository"), base)
     testcases_revision = data.get("testcases_revision") or (WORKING_TREE if revision == "HEAD" else revision)
     return TargetDefinition(
         name=name, path=path, raw=data, repository=repository, revision=revision, recipe=recipe,
-        source_folder=data.get("source_folder", "engine" if recipe == "dem" else "."),
+        source_folder=source_folder,
         engine=data.get("engine", "dem"), testcases=list(testcases),
         testcases_repository=_resolve_repository(data.get("testcases_repository"), base)
         if data.get("testcases_repository") else repository,
@@ -198,7 +282,81 @@ def parse_target(name: str, data, path: Path) -> TargetDefinition:
         make_jobs=data.get("make_jobs", 1), generated_executable=data.get("generated_executable"),
         executable=data.get("executable"), thermo_columns=dict(data.get("thermo_columns", {})),
         mpi_launcher=list(launcher),
+        configure=list(data.get("configure", [])),
+        cmake_options={k: str(v) for k, v in data.get("cmake_options", {}).items()},
+        build_type=data.get("build_type", "Release"), build_targets=list(data.get("build_targets", [])),
+        prebuild=list(data.get("prebuild", [])), postbuild=list(data.get("postbuild", [])),
+        env={k: str(v) for k, v in data.get("env", {}).items()},
+        jobs=data.get("jobs", data.get("make_jobs")), ccache=data.get("ccache"),
+        export=list(data.get("export", [source_folder])), requires=requires, patches=patches,
+        on_demand=bool(data.get("on_demand", False)),
     )
+
+
+def _build_field_problems(problems: Problems, data: dict, path: Path) -> None:
+    """Type and shape of the build recipe fields (``configure`` ... ``patches``)."""
+    for key in ("configure", "prebuild", "postbuild", "build_targets", "export"):
+        if key in data and expect_type(problems, json_path(key), data[key], list, "a list of strings"):
+            for i, item in enumerate(data[key]):
+                if expect_type(problems, json_path(key, i), item, str, "a string") and not item.strip():
+                    problems.add(json_path(key, i), "must not be empty")
+    for item in data.get("export", []) if isinstance(data.get("export"), list) else []:
+        if isinstance(item, str) and (item.startswith("/") or ".." in PurePosixPath(item).parts):
+            problems.add(json_path("export"), f"folder {item!r} must be relative to the repository root, "
+                         "without '..'")
+    if "build_type" in data:
+        expect_type(problems, json_path("build_type"), data["build_type"], str, "a string (e.g. Release)")
+    for key in ("ccache", "on_demand"):
+        if key in data:
+            expect_type(problems, json_path(key), data[key], bool, "true or false")
+    for key in ("cmake_options", "env"):
+        if key in data and expect_type(problems, json_path(key), data[key], dict, "an object"):
+            for sub, value in data[key].items():
+                expect_type(problems, json_path(key, sub), value, (str, int, float), "a string or number")
+    if "jobs" in data and expect_type(problems, json_path("jobs"), data["jobs"], int, "an integer"):
+        if isinstance(data["jobs"], bool) or data["jobs"] < 1:
+            problems.add(json_path("jobs"), "must be at least 1")
+    if "requires" in data and expect_type(problems, json_path("requires"), data["requires"], list,
+                                          "a list of requirements"):
+        for i, item in enumerate(data["requires"]):
+            where = json_path("requires", i)
+            if isinstance(item, str):
+                if not item.strip():
+                    problems.add(where, "must name an executable")
+            elif isinstance(item, dict):
+                unknown = set(item) - {"executable", "package"}
+                if unknown or not item:
+                    problems.add(where, 'an object has "executable" and/or "package" (strings)')
+                for sub, value in item.items():
+                    if sub in ("executable", "package"):
+                        expect_type(problems, json_path("requires", i, sub), value, str, "a string")
+            else:
+                problems.add(where, 'must be an executable name or {"executable": ..., "package": ...}')
+    if "patches" in data and expect_type(problems, json_path("patches"), data["patches"], list,
+                                         "a list of commit ranges"):
+        for i, entry in enumerate(data["patches"]):
+            if not expect_type(problems, json_path("patches", i), entry, dict, "an object"):
+                continue
+            for key in sorted(set(entry) - PATCH_KEYS):
+                problems.add(json_path("patches", i, key), f"unknown field (known: {', '.join(sorted(PATCH_KEYS))})")
+            for key in ("from", "before"):
+                if key in entry and expect_type(problems, json_path("patches", i, key), entry[key], str,
+                                                "a revision (string)") and not entry[key].strip():
+                    problems.add(json_path("patches", i, key), "must name a revision")
+            for key in ("env", "cmake_options"):
+                if key in entry and expect_type(problems, json_path("patches", i, key), entry[key], dict,
+                                                "an object"):
+                    for sub, value in entry[key].items():
+                        expect_type(problems, json_path("patches", i, key, sub), value, (str, int, float),
+                                    "a string or number")
+            files = entry.get("files", [])
+            if expect_type(problems, json_path("patches", i, "files"), files, list, "a list of patch files"):
+                for j, name in enumerate(files):
+                    where = json_path("patches", i, "files", j)
+                    if expect_type(problems, where, name, str, "a file name (string)"):
+                        if not (path.resolve().parent / name).is_file():
+                            problems.add(where, f"patch file {name!r} not found (relative to "
+                                         f"{path.resolve().parent})")
 
 
 def _testcases_folder_problem(folder: str) -> str | None:
@@ -282,8 +440,8 @@ def select_targets(names: list[str], folder: Path | None = None) -> tuple[list[T
     A named target that does not exist is a UserError; broken target files are returned as problems.
     """
     all_targets, problems = load_targets(folder)
-    if not names:
-        return list(all_targets.values()), problems
+    if not names:  # on-demand targets (a cold build costs minutes) only when named
+        return [t for t in all_targets.values() if not t.on_demand], problems
     chosen = []
     for name in names:
         if name.endswith(".json") and Path(name).is_file():

@@ -47,7 +47,7 @@ NOT_TESTCASES = RESERVED_NAMES
 _NOT_CONTENT = {"post", "run.json", ".git", "__pycache__"}
 RUN_KEYS = {"name", "type", "nprocs", "mpi_options", "script", "variables", "depends_on", "post_scripts", "data",
             "timeout", "thermo_columns", "consistency", "vtk", "expectations", "stability", "description",
-            "sweep", "sweep_point"}
+            "sweep", "sweep_point", "scaling", "scaling_point", "profile"}
 #: a pseudo run name that carries a broken run.config into the store and the JUnit report
 CONFIG_RUN = "run.config"
 
@@ -312,10 +312,11 @@ def _validate_entry(problems: Problems, entry: dict, i: int, folder: Path, adapt
         _validate_data(problems, entry["data"], [*at, "data"])
     # harness.acceptance and harness.sweep name paths inside the entry; a NaN there is reported already
     already = {message[len(f"{problems.path}: "):].partition(": ")[0] for message in problems.messages}
-    from harness import acceptance, sweep
+    from harness import acceptance, profiles, scaling, sweep
 
     inner = (acceptance.validate(entry) if "expectations" in entry or "stability" in entry else []) \
-        + sweep.validate(entry)
+        + sweep.validate(entry) + scaling.validate(entry) \
+        + (profiles.validate(entry["profile"]) if "profile" in entry else [])
     for message in inner:
         where, what = _where_in_entry(at, message)
         if where not in already:
@@ -399,6 +400,16 @@ def _without_broken_fields(entry: dict, problems: list[str], i: int) -> dict:
     return {key: value for key, value in entry.items() if key not in bad and not has_non_finite(value)}
 
 
+def _parallelism(adapter_name: str) -> str:
+    """How the adapter's code uses more cores (``EngineAdapter.parallelism``); "mpi" when it cannot be told."""
+    from harness.adapters import get_adapter
+
+    try:
+        return get_adapter(adapter_name).parallelism
+    except Exception:  # noqa: BLE001 - an unknown adapter is reported where the target is read
+        return "mpi"
+
+
 def parse_run_config(data, path: Path, adapter_name: str) -> tuple[list[RunEntry], list[str]]:
     """Validate a run.config for one adapter: the run entries (with their own problems) and the problems
     of the file (file-level ones and those between entries: duplicate names, dependencies).
@@ -429,17 +440,19 @@ def parse_run_config(data, path: Path, adapter_name: str) -> tuple[list[RunEntry
         return _with_config_run([], file_problems.messages), file_problems.messages
     # a valid sweep block becomes one ordinary run per value (harness.sweep); an invalid one stays to be
     # reported as one entry. Each item keeps the index of its entry in the file and the entry's NaN problems.
-    from harness import sweep
+    from harness import scaling, sweep
 
+    parallelism = _parallelism(adapter_name)
     items: list[tuple[int, object, list[str]]] = []
     for i, entry in enumerate(runs):
         non_finite = Problems(path)
         non_finite_problems(non_finite, entry, "runs", i)
         expandable = (isinstance(entry, dict) and not non_finite and isinstance(entry.get("name"), str)
                       and segment_problem(entry["name"]) is None and isinstance(entry.get("variables", {}), dict)
-                      and not sweep.validate(entry))
+                      and not sweep.validate(entry) and not scaling.validate(entry))
         for point in sweep.expand(entry) if expandable else [entry]:
-            items.append((i, point, non_finite.messages))
+            for scaled in scaling.expand(point, parallelism) if expandable else [point]:
+                items.append((i, scaled, non_finite.messages))
     between: dict[int, list[str]] = {}   # problems between entries, by position in items
     names = [entry.get("name") for _i, entry, _p in items if isinstance(entry, dict)]
     for k, (i, entry, _p) in enumerate(items):

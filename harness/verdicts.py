@@ -3,13 +3,16 @@ ConsistencyResult rows instead of a fresh comparison, so that the dashboard (run
 CLI cannot disagree - the rules (which states fail, how an override is honoured, how JUnit is written) stay
 in harness.check and harness.rules.
 
-What the store cannot tell: whether a test case changed on disk since its run (``harness check`` reads the
-test cases and reports such a run as stale). A post-processed run the check has not scored yet says so in its
+The set of runs is ``harness.coverage.covered_runs``: after a ``harness check`` (or ``run``) it holds every
+selected run configuration, broken ones and runs not executed included, and a test case changed on disk is a
+not-executed run of the new content (stale), so the dashboard's JUnit is the CLI's to the byte. What the
+store cannot tell: a test case changed on disk since the last ``harness check`` or ``run``. A post-processed run the check has not scored yet says so in its
 message (``harness check`` scores every such run before it writes its report, so its reports never have one).
 """
 from __future__ import annotations
 
 from harness.check import CheckReport, RunVerdict, junit_xml, verdict_of
+from harness.coverage import covered_runs
 
 #: a checkable run the check has not scored yet (its consistency is still blank)
 NOT_CHECKED = "not checked against the reference yet (run 'harness check')"
@@ -36,21 +39,8 @@ def stored_verdict(run) -> RunVerdict:
 
 def current_runs(machine_id: int | None = None, target_id: int | None = None):
     """Runs of each target's current build on each machine, not replaced by a newer run of other content:
-    the runs ``harness check`` gives verdicts on (optionally of one machine and target), in its order."""
-    from django.db.models import Prefetch
-
-    from harness.models import ConsistencyResult, Override, Run
-
-    runs = Run.objects.filter(build__current=True, replaced=False)
-    if machine_id is not None:
-        runs = runs.filter(machine_id=machine_id)
-    if target_id is not None:
-        runs = runs.filter(target_id=target_id)
-    return (runs.select_related("machine", "target", "build", "testcase", "reference_run__target",
-                                "reference_run__build")
-            .prefetch_related(Prefetch("consistency_results", queryset=ConsistencyResult.objects.order_by("pk")),
-                              Prefetch("overrides", queryset=Override.objects.select_related("user")))
-            .order_by("machine__name", "target__name", "testcase__path", "name"))
+    the runs ``harness check`` gives verdicts on (``harness.coverage.covered_runs``), in its order."""
+    return covered_runs(machine_id=machine_id, target_id=target_id)
 
 
 def stored_report(runs) -> CheckReport:

@@ -121,6 +121,43 @@ class Workspace:
         safe = re.sub(r"[^A-Za-z0-9_.=@+-]", "_", name)[:200]
         return FileLock(str(self.locks / f"{safe}.lock"), timeout=timeout)
 
+    def use_lock(self, target: str, build_key: str) -> "UseLock":
+        """The lock a process holds (shared) while it uses a build's binary and run folders, and ``harness gc``
+        takes (exclusive, without waiting) before it removes any of them."""
+        safe = re.sub(r"[^A-Za-z0-9_.=@+-]", "_", f"use-build-{target}-{build_key}")[:200]
+        return UseLock(self.locks / f"{safe}.lock")
+
+
+class UseLock:
+    """A reader/writer lock between processes (``fcntl.flock`` on ``locks/<name>.lock``): any number of
+    holders in shared mode - the processes using a build - or one in exclusive mode - ``harness gc`` about to
+    remove that build's folders. The kernel releases it when its holder dies (a killed run holds nothing)."""
+
+    def __init__(self, path: Path):
+        self.path, self._fd = path, None
+
+    def acquire(self, exclusive: bool = False, blocking: bool = True) -> bool:
+        """Take the lock; False when ``blocking`` is off and another process holds it in a conflicting mode."""
+        import fcntl
+
+        if self._fd is not None:
+            return True
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        mode = (fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH) | (0 if blocking else fcntl.LOCK_NB)
+        try:
+            fcntl.flock(fd, mode)
+        except BlockingIOError:
+            os.close(fd)
+            return False
+        self._fd = fd
+        return True
+
+    def release(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)  # closing the descriptor drops the flock
+            self._fd = None
+
 
 def _ignore_vanished(function, path, exc_info) -> None:
     """``shutil.rmtree``'s error handler (Python 3.11's ``onerror`` form): only a vanished file is ignored."""

@@ -4,7 +4,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-apt_packages=(liggghts liggghts-doc lammps lammps-examples yade openmpi-bin chromium make gcc postgresql)
+# cmake, g++, ccache and libopenmpi-dev build LIGGGHTS-PUBLIC from source (targets/liggghts-src.json);
+# linux-perf: harness run --profile (perf record -g); g++ also builds the small C++ code of tests/efficiency
+apt_packages=(liggghts liggghts-doc lammps lammps-examples yade openmpi-bin chromium make gcc postgresql
+              cmake g++ ccache libopenmpi-dev linux-perf)
 if [ "${HARNESS_SKIP_APT:-0}" != 1 ] && command -v apt-get >/dev/null 2>&1; then
     missing=()
     for p in "${apt_packages[@]}"; do

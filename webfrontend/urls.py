@@ -1,7 +1,7 @@
 from django.contrib import admin
 from django.urls import include, path, register_converter
 
-from webfrontend import params, views
+from webfrontend import efficiency, params, views
 
 # path values the store could never hold (ids beyond its integers, NUL, '..') match no URL: a 404
 register_converter(params.IdConverter, "id")
@@ -22,12 +22,21 @@ urlpatterns = [
     path("compare/", views.compare, name="compare"),
     path("builds/compare/", views.compare_builds_page, name="compare-builds"),
     path("commits/<segment:target>/<segment:commit>/", views.commit_page, name="commit"),
+    path("builds/<id:build_id>/", views.build_detail, name="build"),
     path("compare/plots.json", views.compare_plots, name="compare-plots"),
     path("history/<id:target_id>/<relpath:testcase>/plots.json", views.history_plots, name="history-plots"),
     path("history/<id:target_id>/<relpath:testcase>/", views.history, name="history"),
     path("sweeps/", views.sweeps, name="sweeps"),
     path("sweeps/<id:build_id>/<relpath:testcase>/<segment:name>.json", views.sweep_plots, name="sweep-plots"),
     path("regressions/", views.regressions, name="regressions"),
+    path("scaling/", efficiency.scaling_page, name="scaling"),
+    path("scaling/<id:build_id>/<relpath:testcase>/<segment:name>.json", efficiency.scaling_plots,
+         name="scaling-plots"),
+    path("breakdown/<id:target_id>/<relpath:testcase>/", efficiency.breakdown_history, name="breakdown"),
+    path("runs/<id:run_id>/profile/", efficiency.profile_page, name="run-profile"),
+    path("runs/<id:run_id>/profile.json", efficiency.profile_json, name="run-profile-json"),
+    path("profiles/diff/", efficiency.profile_diff_page, name="profile-diff"),
+    path("profiles/diff.json", efficiency.profile_diff_json, name="profile-diff-json"),
     path("matrix/", views.matrix, name="matrix"),
     path("matrix.json", views.matrix_json, name="matrix-json"),
     path("junit.xml", views.junit, name="junit"),

@@ -20,6 +20,7 @@ from django.views.decorators.http import require_POST
 
 from harness.builds import current_build
 from harness.models import Build, ConsistencyResult, Machine, Override, Run, Series, Target, TestCase
+from harness.coverage import covered
 from harness.queries import CONSISTENCY_CATEGORIES, STATE_CATEGORIES, stepping_changes
 from harness.verdicts import current_runs, stored_junit_xml, stored_verdict
 from webfrontend import params, plots, presentation
@@ -35,13 +36,14 @@ BUILD_CHOICE_LIMIT = 500
 LIST_PAGE_SIZE = settings.DASHBOARD_LIST_PAGE_SIZE
 MODES = ("state", "consistency")
 #: fields of a run (and its build) no run list shows: left in the database, whatever their size
-LIST_DEFERRED = ("config", "command", "timing", "failure_message", "folder", "build__log", "build__commit_message",
-                 "build__environment", "build__executable")
+LIST_DEFERRED = ("config", "command", "timing", "breakdown", "failure_message", "folder", "build__log",
+                 "build__commit_message", "build__environment", "build__executable")
 
 
 def _current(queryset):
-    """Runs of their target's current build that no newer run of other content replaced."""
-    return queryset.filter(build__current=True, replaced=False)
+    """Runs of their target's current build that no newer run of other content replaced: what a verdict
+    covers (harness.coverage, shared with `harness check` and the JUnit XML)."""
+    return covered(queryset)
 
 
 def _mode(request) -> tuple[str, str | None]:
@@ -108,8 +110,14 @@ def overview(request):
     if selected is not None:
         runs, everything = runs.filter(machine_id=selected), everything.filter(machine_id=selected)
     machines = runs.overview()
-    builds = {(b.machine_id, b.target_id): b for b in Build.objects.filter(current=True).only(
-        "id", "machine_id", "target_id", "revision", "commit", "committed_at", "commit_message", "started")}
+    # the current builds and the failed builds not followed by a success, in one query
+    shown = list(Build.objects.filter(Q(current=True) | Q(pk__in=Build.objects.unresolved_failures().values("pk")))
+                 .select_related("target", "machine").defer("log", "environment"))
+    builds = {(b.machine_id, b.target_id): b for b in shown if b.current}
+    failed_builds = sorted((b for b in shown if b.status == Build.Status.FAILED and not b.current),
+                           key=lambda b: (b.machine.name, b.target.name, -(b.finished.timestamp() if b.finished else 0)))
+    if selected is not None:
+        failed_builds = [b for b in failed_builds if b.machine_id == selected]
     commit_urls = {pk: (definition or {}).get("commit_url")
                    for pk, definition in Target.objects.values_list("pk", "definition")}
     speed = stepping_changes(builds.values())
@@ -132,7 +140,16 @@ def overview(request):
     page = _with_failing_since(_page(request, _run_list(runs.listing()))) if found["filtered"] else None
     return render(request, "webfrontend/overview.html", {
         "machines": machines, "mode": mode, "selected": selected, "uncounted": uncounted, "page": page,
-        "all_machines": Machine.objects.order_by("name"), "show_failing_since": True, **found})
+        "failed_builds": failed_builds, "all_machines": Machine.objects.order_by("name"),
+        "show_failing_since": True, **found})
+
+
+def build_detail(request, build_id):
+    """A build: state, duration, compiler, options, patches, ccache use, first error line and the log."""
+    build = get_object_or_404(Build.objects.select_related("target", "machine"), pk=build_id)
+    return render(request, "webfrontend/build.html", {
+        "build": build, "details": build.details or {},
+        "log": presentation.tail(build.log, settings.DASHBOARD_TEXT_LIMIT)})
 
 
 def testcase_runs(request, testcase):

@@ -63,6 +63,11 @@ class EngineAdapter:
     first_run_note = ""
     #: harness name -> the code's own thermo column name, used when neither target nor run.config maps it
     default_thermo_columns: dict[str, str] = {}
+    #: how a scaling study (``harness.scaling``) gives this code more cores: "mpi" ranks or "threads"
+    parallelism = "mpi"
+    #: how ``harness run --profile`` samples it: "perf" (``perf record -g`` of a native program) or "phases"
+    #: (the code's own phase timers, for an interpreted program whose native stacks say nothing)
+    profiler = "perf"
 
     def accepts_script(self, script: str) -> bool:
         """Whether a run.config's plain ``script`` (not a per-adapter object) is for this code.
@@ -131,12 +136,30 @@ class EngineAdapter:
         """Timing breakdown in s: pair, neigh, comm, modify, output, other, total (missing ones 0)."""
         raise NotImplementedError
 
+    def read_breakdown(self, folder: Path, timing: dict | None = None) -> dict:
+        """The timing breakdown in the harness' sections (``harness.breakdown``): pair, neighbor, communication,
+        modify, output, other, with min/avg/max over ranks where the code prints them. By default the
+        sections of ``read_timing`` (averages only); codes that print more override it."""
+        from harness.breakdown import from_timing
+
+        return from_timing(self.read_timing(folder) if timing is None else timing)
+
     def scan_log(self, folder: Path) -> LogScan:
         raise NotImplementedError
 
     def vtk_files(self, folder: Path) -> list[Path]:
         """VTK dumps the run wrote, in output order."""
         raise NotImplementedError
+
+    def largest_overlaps(self, folder: Path) -> list[float]:
+        """The largest particle overlap / radius the engine reported, per run block ([]: it reports none);
+        the default blow-up check of harness.acceptance reads it when thermo has no max_overlap column."""
+        return []
+
+    def run_environment(self, config: dict) -> dict[str, str]:
+        """Environment variables that pass a run configuration's declarations to the engine (e.g. a relaxed
+        blow-up limit); none by default."""
+        return {}
 
     def default_run_config(self, folder: Path) -> dict | None:
         """A run.config for a test case folder that has none, or None if the folder is not a test case."""

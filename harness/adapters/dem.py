@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import pandas as pd
@@ -54,6 +55,9 @@ class DemAdapter(EngineAdapter):
     name = "dem"
     first_run_note = ("the engine compiles its kernels first (up to a minute for each new combination of "
                       "contact models); later runs reuse them")
+    #: more cores are more Numba threads (NUMBA_NUM_THREADS); its profile is its own phase timers (engine/runner.py)
+    parallelism = "threads"
+    profiler = "phases"
     thermo_file = "thermo.csv"
     timing_file = "timing.json"
 
@@ -103,6 +107,22 @@ class DemAdapter(EngineAdapter):
     def scan_log(self, folder: Path) -> LogScan:
         path = Path(folder) / self.log_file()
         return scan_lines(read_text(path)) if path.is_file() else LogScan()
+
+    def largest_overlaps(self, folder: Path) -> list[float]:
+        """From the engine's ``Loop time ...; max overlap X% of radius`` line of each run block."""
+        path = Path(folder) / self.log_file()
+        text = read_text(path) if path.is_file() else ""
+        return [float(m) / 100.0 for m in re.findall(r"; max overlap ([0-9.eE+-]+)% of radius", text)]
+
+    def run_environment(self, config: dict) -> dict[str, str]:
+        """The run configuration's ``stability.blowup`` for the engine's own blow-up check (engine/blowup.py):
+        ``false`` switches it off, ``{"max_overlap": X}`` sets the limit."""
+        from harness.acceptance import blowup_limit
+
+        limit = blowup_limit(config)
+        if limit is None:
+            return {}
+        return {"DEM_BLOWUP_MAX_OVERLAP": "off" if limit == math.inf else repr(float(limit))}
 
     def vtk_files(self, folder: Path) -> list[Path]:
         from harness.postprocess import dump_step

@@ -94,6 +94,62 @@ def parse_timing(lines: list[str]) -> dict[str, float]:
     return timing
 
 
+#: LAMMPS' table rows onto the harness' sections (harness.breakdown); Bond and Kspace count as pair work
+BREAKDOWN_SECTIONS = {"Pair": "pair", "Bond": "pair", "Kspace": "pair", "Neigh": "neighbor",
+                      "Comm": "communication", "Output": "output", "Modify": "modify", "Other": "other"}
+
+
+def parse_breakdown(lines: list[str]) -> dict:
+    """Sections with min/avg/max over ranks from every "MPI task timing breakdown" table, summed over blocks;
+    load imbalance max/avg of the pair time (``harness.breakdown``)."""
+    from harness.breakdown import add_block, imbalance_of_sections
+
+    breakdown: dict = {}
+    block = None
+    in_table = False
+    for line in lines:
+        loop = _LOOP_TIME.match(line)
+        if loop:
+            if block is not None:
+                breakdown = add_block(breakdown, block)
+            block = {"sections": {}, "total": float(loop.group(1)), "ranks": int(loop.group(2))}
+            in_table = False
+            continue
+        if block is None:
+            continue
+        if line.startswith("Section |"):
+            in_table = True
+            continue
+        row = _TABLE_ROW.match(line) if in_table else None
+        if row is None:
+            if in_table and line.strip() and not line.startswith("---"):
+                in_table = False
+                breakdown = add_block(breakdown, block)
+                block = None
+            continue
+        cells = [cell.strip() for cell in line.split("|")]
+        section = BREAKDOWN_SECTIONS.get(row.group(1))
+        if section is None or len(cells) < 4:
+            continue
+        values = {}
+        for stat, cell in zip(("min", "avg", "max"), cells[1:4]):
+            try:
+                number = float(cell)
+            except ValueError:
+                continue
+            if math.isfinite(number):
+                values[stat] = number
+        into = block["sections"].setdefault(section, {})
+        for stat, number in values.items():
+            into[stat] = into.get(stat, 0.0) + number
+    if block is not None:
+        breakdown = add_block(breakdown, block)
+    if breakdown:
+        breakdown["imbalance"] = imbalance_of_sections(breakdown, "pair")
+        breakdown["imbalance_of"] = "pair time" if breakdown["imbalance"] is not None else ""
+    return breakdown
+
+
 def _open_text(path: Path):
     if path.suffix == ".gz":
         return gzip.open(path, "rt", errors="replace")
@@ -257,6 +313,13 @@ class LammpsAdapter(LiggghtsAdapter):
         except UserError:
             return {key: 0.0 for key in TIMING_KEYS}
         return parse_timing(lines)
+
+    def read_breakdown(self, folder, timing=None):
+        """Sections with min/avg/max over ranks (``parse_breakdown``); {} without a log."""
+        try:
+            return parse_breakdown(read_log_lines(Path(folder), self.log_file()))
+        except UserError:
+            return {}
 
     def scan_log(self, folder) -> LogScan:
         """``ERROR`` lines of the log, stdout and stderr (other ranks' errors reach the screen only), once

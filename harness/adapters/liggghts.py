@@ -38,6 +38,8 @@ DEFAULT_COLUMNS = {"step": "Step", "atoms": "Atoms", "ke": "KinEng"}
 
 _LOOP_TIME = re.compile(r"^Loop time of (\S+) on (\d+) procs? for (\d+) steps")
 _SECTION_TIME = re.compile(r"^(\w+)\s+time \(%\)\s*=\s*(\S+)")
+#: ``Nlocal:    162 ave 252 max 72 min``: particles per rank after a run block (LAMMPS prints the same line)
+NLOCAL = re.compile(r"^Nlocal:\s+(\S+) ave (\S+) max (\S+) min")
 _EROTATE = re.compile(r"^\s*compute\s+(\S+)\s+\S+\s+erotate/sphere(\s|$)")
 _DUMP = re.compile(r"^\s*dump\s+(\S+)\s+\S+\s+(\S+)\s+\d+\s+(\S+)")
 #: dump styles that write per-particle VTK (not mesh/vtk, which writes wall meshes)
@@ -245,6 +247,48 @@ class LiggghtsAdapter(EngineAdapter):
                 elif line.startswith("Nlocal") or line.startswith("Setting up run"):
                     in_breakdown = False
         return timing
+
+    def read_breakdown(self, folder, timing=None):
+        """The breakdown of every ``Loop time`` block, summed (``harness.breakdown``).
+
+        LIGGGHTS 3.8 prints each section's time averaged over ranks (no min/max; src/finish.cpp), so the load
+        imbalance is that of the particles: max/avg of ``Nlocal`` summed over the blocks.
+        """
+        from harness.breakdown import add_block
+
+        lines = read_log_lines(Path(folder), self.log_file())
+        breakdown: dict = {}
+        block = None
+        particles_avg = particles_max = 0.0
+        for line in lines:
+            loop = _LOOP_TIME.match(line)
+            if loop:
+                if block is not None:  # a block without its Nlocal line (a run that stopped there)
+                    breakdown = add_block(breakdown, block)
+                block = {"sections": {}, "total": float(loop.group(1)), "ranks": int(loop.group(2))}
+                continue
+            if block is None:
+                continue
+            section = _SECTION_TIME.match(line)
+            if section and section.group(1) in TIMING_SECTIONS:
+                value = float(section.group(2))
+                if math.isfinite(value):
+                    name = {"neigh": "neighbor", "comm": "communication"}.get(TIMING_SECTIONS[section.group(1)],
+                                                                            TIMING_SECTIONS[section.group(1)])
+                    block["sections"][name] = {"avg": value}
+                continue
+            nlocal = NLOCAL.match(line)
+            if nlocal:
+                particles_avg += float(nlocal.group(1))
+                particles_max += float(nlocal.group(2))
+                breakdown = add_block(breakdown, block)
+                block = None
+        if block is not None:
+            breakdown = add_block(breakdown, block)
+        if breakdown:
+            breakdown["imbalance"] = particles_max / particles_avg if particles_avg > 0 else None
+            breakdown["imbalance_of"] = "particles per rank" if particles_avg > 0 else ""
+        return breakdown
 
     def scan_log(self, folder):
         """``ERROR`` lines (fail the run even with exit code 0) and ``WARNING`` lines, in log order.

@@ -86,6 +86,8 @@ def convert_vtu(source: Path, destination: Path) -> None:
 
 @register
 class YadeAdapter(EngineAdapter):
+    #: YADE parallelises with OpenMP threads (OMP_NUM_THREADS), not MPI ranks
+    parallelism = "threads"
     """YADE: batch command line, thermo.csv/timing.json written by the yade_series helper, VTKRecorder dumps."""
 
     name = "yade"

@@ -13,6 +13,9 @@ def configure(parser):
     parser.add_argument("-j", dest="jobs", type=int, default=1, metavar="N", help="runs in parallel (default 1)")
     parser.add_argument("--slower", type=float, metavar="FACTOR",
                         help="bad = stepping time grew by FACTOR (e.g. 1.2) against GOOD, besides failures")
+    parser.add_argument("--profile", action="store_true",
+                        help="profile every run (harness run --profile), so that a slower commit comes with the "
+                             "functions whose share grew")
 
 
 def run(args) -> int:
@@ -31,7 +34,7 @@ def run(args) -> int:
 
     (target,), _problems = select_targets([args.target], args.targets_dir)
     result = bisect(target, args.good, args.bad, args.machine, args.pattern, args.slower, args.jobs,
-                    say=lambda text: print(text, file=sys.stderr, flush=True))
+                    say=lambda text: print(text, file=sys.stderr, flush=True), profile=args.profile)
     if result.first_bad is None:
         print(f"the first bad commit is one of {len(result.candidates)} that cannot be built: "
               + " ".join(c[:10] for c in result.candidates))
@@ -62,4 +65,18 @@ def run(args) -> int:
         elif args.slower:
             print(f"\nstepping time against GOOD: {comparison.time_ratio:.3f}x (geometric mean)")
             print(format_table(rows(comparison)))
+            print_slowdown(comparison)
     return 0
+
+
+def print_slowdown(comparison, runs: int = 3) -> None:
+    """Why the first slow commit is slower than GOOD: per most slowed-down run its breakdown against GOOD's,
+    and the profile diff where both were profiled (``harness.slowdown``)."""
+    from harness.slowdown import explain
+
+    explanations = explain(comparison, limit=runs)
+    if not explanations:
+        return
+    print("\nwhere the time went (B = the first slow commit, A = GOOD):")
+    for explanation in explanations:
+        print("\n".join(explanation.lines()))

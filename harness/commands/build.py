@@ -1,4 +1,5 @@
-"""``harness build [TARGET ...] [--force]``: build targets at their revisions (cached by definition and commit)."""
+"""``harness build [TARGET ...] [--force] [-j N]``: build targets at their revisions (cached by definition and
+commit). Without names every target except the on-demand ones (``"on_demand": true``, e.g. liggghts-src)."""
 import sys
 
 NAME = "build"
@@ -6,8 +7,12 @@ HELP = "build targets at their revisions (cached; --force rebuilds)"
 
 
 def configure(parser):
-    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names, TARGET@REV (any git revision) or TARGET@A..B (default: all)")
-    parser.add_argument("--force", action="store_true", help="rebuild even if a complete build is cached")
+    parser.add_argument("targets", nargs="*", metavar="TARGET", help="target names, TARGET@REV (any git revision) or TARGET@A..B (default: all but the "
+                        "on-demand targets)")
+    parser.add_argument("--force", action="store_true", help="rebuild even if a build (complete or failed) is "
+                        "stored")
+    parser.add_argument("-j", "--jobs", type=int, default=None, metavar="N",
+                        help="parallel compile jobs (default: the target's 'jobs', else the machine's cores)")
 
 
 def run(args) -> int:
@@ -16,6 +21,8 @@ def run(args) -> int:
     from harness.store import setup_store
     from harness.revisions import expand
 
+    if args.jobs is not None and args.jobs < 1:
+        raise UserError(f"-j {args.jobs}: must be at least 1")
     setup_store()
     targets, problems = expand(args.targets, args.targets_dir)
     for problem in problems:
@@ -24,10 +31,11 @@ def run(args) -> int:
     say = (lambda text: print(text, file=sys.stderr))
     for target in targets:
         try:
-            build = build_target(target, args.machine, force=args.force, log=say)
+            build = build_target(target, args.machine, force=args.force, log=say, jobs=args.jobs)
         except UserError as exc:
             print(f"harness: {exc}", file=sys.stderr)
             status = 1
             continue
-        print(f"{target.name}: {build.commit[:12]} {build.status} {build.folder}")
+        took = f" (built in {build.duration:.1f} s)" if build.duration is not None else ""
+        print(f"{target.name}: {build.commit[:12]} {build.status}{took} {build.folder}")
     return status

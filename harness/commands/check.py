@@ -24,6 +24,12 @@ def configure(parser):
                         help="check the runs of the test cases of this folder (as 'harness run --testcases' ran "
                              "them) instead of the targets' own")
     parser.add_argument("--junit", metavar="FILE", help="write JUnit XML (Jenkins) to FILE")
+    add_allow_missing(parser)
+
+
+def add_allow_missing(parser):
+    parser.add_argument("--allow-missing", action="store_true",
+                        help="runs of the current build that were not executed are skipped, not failures")
 
 
 def verdict_dict(v) -> dict:
@@ -62,7 +68,7 @@ def run(args) -> int:
     setup_store()
     targets, problems = expand(args.targets, args.targets_dir)
     targets = [with_testcases(t, args.testcases) for t in targets]
-    report = check_targets(targets, args.machine, pattern=args.pattern)
+    report = check_targets(targets, args.machine, pattern=args.pattern, allow_missing=args.allow_missing)
     report.problems[:0] = problems
     for problem in report.problems:
         print(f"harness: {problem}", file=sys.stderr)

@@ -12,9 +12,11 @@ HELP = "build, run, check and write JUnit XML in one command, with one exit code
 
 
 def configure(parser):
+    from harness.commands.check import add_allow_missing
     from harness.commands.run import add_selection
 
     add_selection(parser)
+    add_allow_missing(parser)
     parser.add_argument("--junit", metavar="FILE", default="junit.xml", help="JUnit XML file (default junit.xml)")
     parser.add_argument("--rerun-failed", action="store_true", help="run failed runs again")
 
@@ -34,7 +36,7 @@ def run(args) -> int:
     options = RunOptions(machine=args.machine, pattern=args.pattern, jobs=args.jobs,
                          rerun_failed=args.rerun_failed, working_tree=args.working_tree)
     ran = run_targets(everything, options)
-    report = check_targets(targets, args.machine, pattern=args.pattern)
+    report = check_targets(targets, args.machine, pattern=args.pattern, allow_missing=args.allow_missing)
     report.problems[:0] = problems + ran.problems
     for problem in report.problems:
         print(f"harness: {problem}", file=sys.stderr)

@@ -16,6 +16,9 @@ def configure(parser):
     parser.add_argument("-k", dest="pattern", metavar="PATTERN", help="only runs whose 'testcase/run' match")
     parser.add_argument("-j", dest="jobs", type=int, default=1, metavar="N", help="runs in parallel (default 1)")
     parser.add_argument("--no-run", action="store_true", help="compare the runs in the store without running")
+    parser.add_argument("--profile", action="store_true",
+                        help="profile the runs (harness run --profile) and print, per run, the breakdown "
+                             "sections and the functions whose share grew most from A to B")
     output = parser.add_mutually_exclusive_group()
     output.add_argument("--json", action="store_true", help="print the comparison as JSON")
     output.add_argument("--markdown", action="store_true", help="print a Markdown table (merge-request comment)")
@@ -43,7 +46,7 @@ def run(args) -> int:
 
     target_a, target_b = side(args.a, args.targets_dir), side(args.b, args.targets_dir)
     if not args.no_run:
-        options = RunOptions(machine=args.machine, pattern=args.pattern, jobs=args.jobs)
+        options = RunOptions(machine=args.machine, pattern=args.pattern, jobs=args.jobs, profile=args.profile)
         report = run_targets([target_a, target_b], options)  # progress on stderr: stdout stays the report
         for problem in report.problems:
             print(f"harness: {problem}", file=sys.stderr)
@@ -60,10 +63,29 @@ def run(args) -> int:
               if args.pattern else ""), file=sys.stderr)
         return 5
     if args.json:
-        print(json.dumps(finite(comparison.as_dict()), indent=1, allow_nan=False, default=str))
+        data = comparison.as_dict()
+        if args.profile:
+            from harness.slowdown import explain
+
+            data["profiles"] = [e.as_dict() for e in explain(comparison)]
+        print(json.dumps(finite(data), indent=1, allow_nan=False, default=str))
     elif args.markdown:
         print(markdown(comparison), end="")
     else:
         print(format_table(rows(comparison)))
         print(summary(comparison))
+        if args.profile:
+            print_profiles(comparison)
     return 1 if comparison.failed else 0
+
+
+def print_profiles(comparison) -> None:
+    """Per pair of runs (the most slowed-down first) the breakdown diff and the functions whose share of the
+    profile grew most from A to B (``harness.slowdown``); a run without a profile is said to have none."""
+    from harness.slowdown import explain
+
+    for explanation in explain(comparison):
+        print()
+        print("\n".join(explanation.lines()))
+        if explanation.functions is None:
+            print(" profile: none recorded for both runs (harness run --profile, or \"profile\": true)")

@@ -13,17 +13,24 @@ def configure(parser):
     parser.add_argument("--min-change", type=float, default=0.1,
                         help="speed: smallest relative change reported (default 0.1 = 10 %%)")
     parser.add_argument("--json", action="store_true", help="print the changes as JSON")
+    parser.add_argument("--builds", action="store_true", help="also list every build with its build time "
+                        "(failed builds too); with --json, print the builds instead of the changes")
 
 
 def run(args) -> int:
     from harness.store import setup_store
 
     setup_store()
-    from harness.regressions import comparable, histories
+    from harness.regressions import build_times, comparable, histories
     from harness.runner import format_table
 
     found = histories(args.machine, args.target, args.pattern, args.sigma, args.window, args.min_change)
     changes = [(h, c) for h in found for c in h.changes]
+    builds = build_times(args.machine, args.target) if args.builds else []
+    if args.json and args.builds:
+        print(json.dumps([{"target": b.target, "commit": b.commit, "status": b.status, "seconds": b.seconds,
+                           "error": b.error, "ccache_hits": b.ccache_hits} for b in builds], indent=1))
+        return 5 if not builds else 0
     if args.json:
         print(json.dumps([{"target": h.target, "testcase": h.testcase, "run": h.run, "commit": c.commit,
                            "previous_commit": c.previous_commit, "kind": c.kind, "detail": c.detail}
@@ -35,4 +42,11 @@ def run(args) -> int:
         print(format_table(rows) if changes else "no changes found")
         print(f"{len(found)} histories, {comparable(found)} of them with runs of two or more builds (only those "
               f"can change), {sum(len(h.points) for h in found)} runs, {len(changes)} changes")
-    return 5 if not found else 0
+        if args.builds:
+            rows = [("target", "commit", "committed", "build", "build time", "ccache hits", "error")]
+            for b in builds:
+                rows.append((b.target, b.commit[:10], b.committed_at.date().isoformat() if b.committed_at else "-",
+                             b.status, f"{b.seconds:.1f} s" if b.seconds is not None else "-",
+                             "-" if b.ccache_hits is None else str(b.ccache_hits), b.error))
+            print(format_table(rows))
+    return 5 if not found and not builds else 0

@@ -34,6 +34,10 @@ def configure(parser):
     parser.add_argument("--force-build", action="store_true", help="rebuild the targets first")
     parser.add_argument("--no-reference", action="store_true",
                         help="do not also run the reference targets of the named targets")
+    parser.add_argument("--profile", action="store_true",
+                        help="record a sampling profile of every run (perf record -g for native codes, the phase "
+                             "timers of the bundled engine): profile.folded in the run folder; runs recorded "
+                             "without a profile run again")
 
 
 def run(args) -> int:
@@ -59,7 +63,8 @@ def run(args) -> int:
         raise UserError("-j and --repeat must be at least 1")
     options = RunOptions(machine=args.machine, pattern=args.pattern, jobs=args.jobs,
                          rerun_failed=args.rerun_failed, rerun_all=args.rerun_all, working_tree=args.working_tree,
-                         scheduler=args.scheduler, force_build=args.force_build, repeat=args.repeat)
+                         scheduler=args.scheduler, force_build=args.force_build, repeat=args.repeat,
+                         profile=args.profile)
     report = run_targets(targets, options)
     report.problems[:0] = problems
     for problem in problems:

@@ -108,23 +108,37 @@ def test_program_runs_with_only_engine_on_the_path(tmp_path):
 
 
 def test_second_run_loads_the_kernel_from_the_disk_cache(tmp_path):
-    """The generated kernel and its machine code land in $DEM_CACHE_DIR; a new process does not compile again."""
+    """The generated kernel and its machine code land in $DEM_CACHE_DIR; a new process does not compile again,
+    even from another build of the engine (a new folder) whose commit changed docstrings, comments and a
+    module without compiled code: the machine code is keyed by content (engine/jit.py), not by files."""
     cache = tmp_path / "cache"
     scene = [domain(), material(), interaction(), model("hooke", "none", characteristic_velocity=1.0),
              particle([0, 0, 0]), timestep(1e-5), run(5)]
+    build = tmp_path / "build" / "engine"
+    shutil.copytree(REPO / "engine", build, ignore=shutil.ignore_patterns("__pycache__"))
+    edits = {"neighbor.py": ('"""Rebuild the neighbor list', '"""Rebuilds the neighbor list'),
+             "kernels.py": ('"""Kernel builder:', '"""The kernel builder:'),
+             "contact_laws.py": ("    sqrt_rd = sqrt(reff * overlap)\n", "    sqrt_rd = sqrt(reff * overlap)  # m\n"),
+             "commands.py": ('"""', '"""Changed. ')}
+    for name, (old, new) in edits.items():
+        text = (build / name).read_text()
+        assert old in text, name
+        (build / name).write_text(text.replace(old, new, 1))
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env.update(PYTHONPATH=str(REPO), DEM_CACHE_DIR=str(cache))
-    compile_seconds = []
-    for attempt in ("first", "second"):
+    env.update(DEM_CACHE_DIR=str(cache))
+    compile_seconds, machine_code = [], []
+    for attempt, source in (("first", REPO), ("second", build.parent)):
         folder = tmp_path / attempt
         folder.mkdir()
         (folder / "scene.json").write_text(json.dumps(scene))
-        proc = subprocess.run([sys.executable, "-m", "engine", "-in", "scene.json"], cwd=folder, env=env,
-                              capture_output=True, text=True, timeout=600)
+        proc = subprocess.run([sys.executable, "-m", "engine", "-in", "scene.json"], cwd=folder,
+                              env=dict(env, PYTHONPATH=str(source)), capture_output=True, text=True, timeout=600)
         assert proc.returncode == 0, proc.stderr
         compile_seconds.append(json.loads((folder / "timing.json").read_text())["compile"])
+        machine_code.append(sorted(p.name for p in cache.rglob("*.nbc")))
     kernels = list(cache.glob("dem_kernel_*.py"))
     assert len(kernels) == 1 and "hooke_normal" in kernels[0].read_text()
     assert "tangential" not in kernels[0].read_text().split('"""', 2)[2]  # only the named laws
-    assert list((cache / "__pycache__").glob(kernels[0].stem + "*.nbi"))
+    assert list((cache / "jit").glob(kernels[0].stem + ".run_steps-*.nbi"))
+    assert machine_code[1] == machine_code[0]  # nothing compiled anew
     assert compile_seconds[1] < 0.25 * compile_seconds[0], compile_seconds

@@ -150,3 +150,35 @@ def test_neighbor_list_matches_brute_force_after_reordering_and_loss(periodic):
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     for a, b in zip(*results):
         assert np.array_equal(a, b)  # the same bytes on 1 and 2 threads
+
+
+def interleaved(cx: int, cy: int, cz: int) -> int:
+    """Morton code by definition: bit b of z, y, x at bits 3b, 3b + 1, 3b + 2."""
+    return sum((((cz >> b) & 1) << 3 * b) | (((cy >> b) & 1) << 3 * b + 1) | (((cx >> b) & 1) << 3 * b + 2)
+               for b in range(21))
+
+
+def test_particles_are_sorted_by_the_morton_order_of_their_cells():
+    """A 4 x 6 x 5 lattice, one sphere per cell of the rebuild's grid (spacing 1.01 cutoffs): after a rebuild the
+    spheres lie in memory in the Z-order of their lattice cells (the first eight a 2 x 2 x 2 block, not a line
+    along z)."""
+    from engine import state as particle_state
+    from engine.neighbor import empty_list, lost_record, rebuild
+
+    radius, skin = 0.01, 0.005
+    spacing = 1.01 * (2 * radius + skin)
+    shape = (4, 6, 5)
+    cells = np.array([(a, b, c) for a in range(shape[0]) for b in range(shape[1]) for c in range(shape[2])])
+    order = np.random.default_rng(3).permutation(len(cells))  # stored in no particular order
+    x = cells[order] * spacing + 0.05
+    n = len(x)
+    s = particle_state.append(particle_state.empty(1, 3), x=x, radius=np.full(n, radius), mass=np.ones(n),
+                              pid=order + 1, x_build=x.copy(), wall_hist=np.zeros((n, 1, 3)))
+    lo, hi, periodic = np.zeros(3), np.ones(3), np.zeros(3, dtype=np.bool_)
+    kept, nbr = rebuild(s, n, empty_list(3), lo, hi, periodic, skin, 1, lost_record(n))
+    assert kept == n
+    lattice = cells[s.pid - 1]
+    codes = [interleaved(*map(int, c)) for c in lattice]
+    assert all(a < b for a, b in zip(codes, codes[1:]))
+    assert {tuple(c) for c in lattice[:8].tolist()} == {(a, b, c) for a in (0, 1) for b in (0, 1) for c in (0, 1)}
+    assert listed_pairs(s, nbr, n) == set()  # one cutoff and a bit apart (lists after sorting: the test above)

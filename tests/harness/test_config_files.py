@@ -25,11 +25,11 @@ def test_malformed_json_reports_line_and_column(tmp_path):
 
 def test_target_fields_are_validated_with_json_paths(tmp_path):
     path = write(tmp_path / "targets" / "t.json", json.dumps(
-        {"recipe": "cmake", "testcases": "cases", "make_variables": {"CC": ["gcc"]}, "colour": "red"}))
+        {"recipe": "scons", "testcases": "cases", "make_variables": {"CC": ["gcc"]}, "colour": "red"}))
     with pytest.raises(UserError) as info:
         load_target_file(path)
     message = str(info.value)
-    assert "t.json: $.recipe: unknown recipe 'cmake'" in message
+    assert "t.json: $.recipe: unknown recipe 'scons'" in message
     assert "$.testcases: must be a list of folders" in message
     assert "$.make_variables.CC: must be a string or number" in message
     assert "$.colour: unknown field" in message

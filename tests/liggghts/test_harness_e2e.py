@@ -17,7 +17,7 @@ pytestmark = [needs_liggghts, pytest.mark.liggghts]
 
 @pytest.fixture(scope="module")
 def liggghts_target_runs(tmp_path_factory):
-    """``harness run liggghts``: our three LIGGGHTS scenes, five runs (about 5 s)."""
+    """``harness run liggghts``: our three LIGGGHTS scenes, seven runs (about 6 s)."""
     home = tmp_path_factory.mktemp("home")
     result = harness(home, "run", "liggghts")
     return records(home, "liggghts"), result.stdout
@@ -28,7 +28,8 @@ def test_liggghts_target_runs_all_scenes(liggghts_target_runs):
     runs, stdout = liggghts_target_runs
     assert sorted(runs) == [
         "testcases/liggghts/cohesion/cohesionless", "testcases/liggghts/cohesion/cohesive",
-        "testcases/liggghts/settling/mpi_np2", "testcases/liggghts/settling/serial",
+        "testcases/liggghts/settling/mpi_np2", "testcases/liggghts/settling/scaling@cores=1",
+        "testcases/liggghts/settling/scaling@cores=2", "testcases/liggghts/settling/serial",
         "testcases/liggghts/wall_impact/impact",  # no run.config: the adapter's default one
     ]
     for name, record in runs.items():

@@ -160,28 +160,31 @@ def test_log_on_a_full_disk(tmp_path):
 
 @pytest.mark.parametrize("kind", ["thermo", "print", "restart_modifier", "restart_command", "timing"])
 def test_outputs_on_a_full_disk(tmp_path, kind):
+    # outputs stay inside the working folder (engine/README.md): a name there that is /dev/full
+    (tmp_path / "full").symlink_to("/dev/full")
     script = GOOD + [thermo(5)]
     if kind == "thermo":
-        script[-1]["file"] = "/dev/full"
+        script[-1]["file"] = "full"
     elif kind == "print":
         script += [{"command": "create", "object": "modifier", "name": "p", "kind": "print", "every": 5,
-                    "file": "/dev/full", "quantities": ["ke"]}, {"command": "fix", "name": "p"}]
+                    "file": "full", "quantities": ["ke"]}, {"command": "fix", "name": "p"}]
     elif kind == "restart_modifier":
         script += [{"command": "create", "object": "modifier", "name": "r", "kind": "restart", "every": 5,
-                    "file": "/dev/full"}, {"command": "fix", "name": "r"}]
+                    "file": "full"}, {"command": "fix", "name": "r"}]
     elif kind == "restart_command":
-        script += [{"command": "create", "object": "restart", "file": "/dev/full"}]
+        script += [{"command": "create", "object": "restart", "file": "full"}]
     if kind == "timing":
         (tmp_path / "timing.json").symlink_to("/dev/full")
-    one_error(engine(tmp_path, script + [run(10)]), 1, "timing.json" if kind == "timing" else "/dev/full",
+    one_error(engine(tmp_path, script + [run(10)]), 1, "timing.json" if kind == "timing" else "full",
               "No space left on device", log=tmp_path / "log.dem")
 
 
 def test_vtk_dump_into_an_unwritable_folder(tmp_path):
     """A dump folder nothing can be created in (/proc, even for root): one ERROR line, no VTK chatter."""
+    (tmp_path / "proc").symlink_to("/proc")
     script = GOOD + [{"command": "create", "object": "modifier", "name": "d", "kind": "vtk", "every": 5,
-                      "folder": "/proc"}, {"command": "fix", "name": "d"}, run(10)]
-    one_error(engine(tmp_path, script), 1, "/proc", log=tmp_path / "log.dem")
+                      "folder": "proc"}, {"command": "fix", "name": "d"}, run(10)]
+    one_error(engine(tmp_path, script), 1, "proc", log=tmp_path / "log.dem")
 
 
 def test_vtk_dump_folder_is_a_file(tmp_path):
