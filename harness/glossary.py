@@ -24,9 +24,10 @@ STATES = {
 VERDICTS = {
     "passed": "The run completed and is consistent with its reference run (or has no reference target), or a "
               "reviewer overruled its failure.",
-    "failed": "The run failed, is inconsistent with its reference run, or is stale; a reviewer did not "
-              "overrule it.",
-    "not run": "The run was never executed or is outdated: no verdict on the current build (JUnit: skipped).",
+    "failed": "The run failed, is inconsistent with its reference run, is stale, or was never executed "
+              "(unless `--allow-missing`); a reviewer did not overrule it.",
+    "not run": "The run is outdated, or was never executed and `--allow-missing` was given: no verdict on "
+               "the current build (JUnit: skipped).",
 }
 
 #: consistency levels (harness.consistency), per quantity and, the worst of them, per run

@@ -18,8 +18,18 @@ from harness.rules import CONSISTENT_LEVELS, OVERRIDE_SEPARATORS, SUCCESS_STATES
 #: outcome categories of the two overview modes, in display order
 STATE_CATEGORIES = ("successful", "failed", "not_executed", "outdated")
 CONSISTENCY_CATEGORIES = ("consistent", "inconsistent", "not_checked")
-#: what ``harness check`` says of a run (harness.check.verdict_of): passed, failed, or not run (skipped)
+#: what ``harness check`` says of a run (harness.check.gate_status): passed, failed, or not run (skipped)
 VERDICT_CATEGORIES = ("passed", "failed", "not_run")
+
+
+def verdict_category(state: str, consistency: str, accepted: bool) -> str:
+    """The verdict category of a run from the columns an aggregation keeps (``accepted``: a reviewer
+    overruled it, ``accepted_expression``), by the gate's one rule ``harness.check.gate_status``."""
+    from harness.check import gate_status  # harness.check reads the store: imported when first counted
+
+    status = gate_status(state, failure_accepted=accepted,
+                         open_inconsistency=consistency == "inconsistent" and not accepted)
+    return "not_run" if status == "skipped" else status
 
 
 def state_category(state: str) -> str:
@@ -38,18 +48,6 @@ def consistency_category(consistency: str, accepted: bool) -> str:
     if consistency == "inconsistent":
         return "consistent" if accepted else "inconsistent"
     return "not_checked"
-
-
-def verdict_category(state: str, consistency: str, accepted: bool) -> str:
-    """What ``harness check`` says of a stored run, from the columns an aggregation keeps: a failed run fails
-    and an inconsistent one fails unless a reviewer overruled it (``accepted_expression``); a run never
-    executed or outdated is skipped ("not run"); every other run passed. The same rules as
-    harness.check.verdict_of (tests/web/test_dashboard_overview.py holds the two against each other)."""
-    if state in ("not_executed", "outdated"):
-        return "not_run"
-    if (state == "failed" or consistency == "inconsistent") and not accepted:
-        return "failed"
-    return "passed"
 
 
 def accepted_expression():

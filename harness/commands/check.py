@@ -52,7 +52,8 @@ def result_and_detail(v) -> tuple[str, str]:
             accepted.append(f"{by} - overruled {what}" if by else text)
         detail = "; ".join(accepted) + (f"; was: {v.message}" if v.message else "")
         return ("overruled" if v.status == "passed" else v.status), detail
-    # the glossary's word (harness/glossary.py): a run never executed or outdated is "not run" (JUnit: skipped)
+    # the glossary's word (harness/glossary.py): a skipped run (outdated, or not executed with --allow-missing) is
+    # "not run" (JUnit: skipped)
     return ("not run" if v.status == "skipped" else v.status), v.message
 
 

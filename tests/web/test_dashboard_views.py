@@ -65,7 +65,8 @@ class OverviewTest(DashboardTest):
         self.assertEqual(list(rows), ["dem-master", "dem-v1"])  # failing first
         master = cells(rows["dem-master"])
         # verdict, target, commit, passed, failed, not run (+ runs of older builds), consistency, lowest C
-        self.assertEqual(master[:6], ["failed", "dem-master vs dem-v1", "cccccccccc HEAD", "1", "2", "1 +1 older"])
+        # the run never executed is a failure of the gate, as in harness check (harness.coverage)
+        self.assertEqual(master[:6], ["failed", "dem-master vs dem-v1", "cccccccccc HEAD", "1", "3", "0 +1 older"])
         self.assertEqual(master[6], "1 consistent 1 inconsistent 2 not checked")
         self.assertEqual(master[7], f"{self.s['c']:.4f}")
         self.assertEqual(master[9], "2026-01-05 12:00")
@@ -99,6 +100,11 @@ class OverviewTest(DashboardTest):
         self.assertEqual(from_page(), from_check())
         Override.objects.create(run=self.s["failed"], user=self.s["user"], quantity="", reason="known crash")
         Override.objects.create(run=self.s["inconsistent"], user=self.s["user"], quantity="ke", reason="new damping")
+        self.assertEqual(from_page(), from_check())
+        # overruled: the failure and the inconsistency pass; the run never executed still fails
+        self.assertEqual(from_page()["dem-master"], {"passed": 3, "failed": 1, "not run": 0})
+        self.assertEqual(cells(target_rows(self.get("/").content.decode())["dem-master"])[0], "failed")
+        Run.objects.filter(pk=self.s["not_run"].pk).update(state="outdated")
         self.assertEqual(from_page(), from_check())
         self.assertEqual(from_page()["dem-master"], {"passed": 3, "failed": 0, "not run": 1})
         self.assertEqual(cells(target_rows(self.get("/").content.decode())["dem-master"])[0], "passed")
@@ -529,7 +535,7 @@ class OverruleTest(DashboardTest):
         # the overruled run counts as consistent and as passed (the verdict of harness check)
         master = cells(target_rows(html)["dem-master"])
         self.assertEqual(master[6], "2 consistent 0 inconsistent 2 not checked")
-        self.assertEqual(master[3:5], ["2", "1"])
+        self.assertEqual(master[3:5], ["2", "2"])  # the other failure: the run never executed
 
     def test_per_quantity_overrule_accepts_when_all_bad_quantities_are_covered(self):
         self.client.force_login(self.s["user"])
@@ -627,7 +633,9 @@ class HistoryJunitStaticTest(DashboardTest):
                                       ("dem-v1.contact_models.hertz.impact", "serial")})  # not the older build's
         self.assertEqual(cases[("dem-master.contact_models.hooke.impact", "serial")].find("failure").get("type"),
                          "exit_code")
-        self.assertIsNotNone(cases[("dem-master.contact_models.hooke.impact", "mpi4")].find("skipped"))
+        # a run of the current build never executed fails the gate, as in harness check (harness.coverage)
+        self.assertEqual(cases[("dem-master.contact_models.hooke.impact", "mpi4")].find("failure").get("type"),
+                         "not_executed")
         inconsistent = cases[("dem-master.contact_models.hertz.impact", "serial")]
         self.assertIn(f"ke: inconsistent, C = {self.s['c']:.4g}", inconsistent.find("failure").get("message"))
         # what the verdict was computed on: commit, test case content, reference and its commit
