@@ -80,14 +80,72 @@ class LayoutTest(BrowserCase):
             "not_found": "/runs/999999/",
         }
 
+    def efficiency_pages(self) -> dict[str, str]:
+        """A failed build, scaling studies at two commits, timing breakdowns and two profiled runs (as in
+        tests/web/test_dashboard_efficiency.py), and the pages that show them."""
+        from datetime import timedelta
+
+        from test_dashboard_efficiency import STACKS_A, STACKS_B, T0, TIMES, breakdown
+
+        from harness import scaling
+        from harness.models import Build, Run, Target, TestCase
+
+        machine = self.s["ws1"]
+        target = Target.objects.create(name="liggghts-src", definition={"recipe": "cmake"})
+        case = TestCase.objects.create(path="liggghts/settling")
+        builds, profiled = [], []
+        for i, commit in enumerate(TIMES):
+            build = Build.objects.create(target=target, machine=machine, revision="HEAD", commit=commit,
+                                         definition_hash="d", status="complete", current=i == 1,
+                                         committed_at=T0 + timedelta(days=i))
+            builds.append(build)
+            for point in scaling.expand({"name": "scaling", "script": "in.settling", "scaling": {"cores": [1, 2]}}):
+                cores = point["scaling_point"]["cores"]
+                Run.objects.create(machine=machine, target=target, build=build, testcase=case, name=point["name"],
+                                   state="post_processed", config=point, stepping_time=TIMES[commit][cores],
+                                   breakdown=breakdown(TIMES[commit][cores] * 0.8, 0.5, cores, 0.3 * (cores - 1)))
+        for build, stacks, pair in ((builds[0], STACKS_A, 1.0), (builds[1], STACKS_B, 3.0)):
+            folder = self.root / f"profile-{build.commit[:4]}"
+            folder.mkdir()
+            (folder / "profile.folded").write_text(stacks)
+            profiled.append(Run.objects.create(
+                machine=machine, target=target, build=build, testcase=case, name="serial", state="post_processed",
+                config={"name": "serial"}, stepping_time=pair + 0.6, breakdown=breakdown(pair, 0.5),
+                folder=str(folder), profile="profile.folded"))
+        error = "../src/src/finish.cpp:722:40: error: ordered comparison of pointer with integer zero"
+        failed = Build.objects.create(
+            target=target, machine=machine, revision="3.8.0", commit="f" * 40, definition_hash="d",
+            status="failed", started=T0 + timedelta(days=3), finished=T0 + timedelta(days=3, seconds=312.5),
+            log="[ 40%] Building CXX object finish.cpp.o\n" + error + "\nmake: *** [all] Error 2\n",
+            details={"recipe": "cmake", "error": error, "duration_s": 312.5, "jobs": 2,
+                     "compiler": "c++ (Debian 12.2.0-14) 12.2.0",
+                     "cmake_options": {"CMAKE_BUILD_TYPE": "Release", "ENABLE_VTK": "OFF"}, "patches": []})
+        a, b = profiled
+        return {
+            "overview_failed_build": "/",
+            "build_failed": f"/builds/{failed.pk}/",
+            "build_complete": f"/builds/{builds[1].pk}/",
+            "scaling": "/scaling/",
+            "scaling_build": f"/scaling/?build={builds[0].pk}",
+            "breakdown": f"/breakdown/{target.pk}/{case.path}/",
+            "run_with_breakdown": f"/runs/{b.pk}/",
+            "compare_with_breakdown": f"/compare/?run={a.pk}&run={b.pk}",
+            "profile": f"/runs/{b.pk}/profile/",
+            "profile_diff": f"/profiles/diff/?run={a.pk},{b.pk}",
+        }
+
     def test_every_page_at_desktop_and_phone_width(self):
         page = self.page
         problems = []
+        pages = {**self.pages(), **self.efficiency_pages()}
         for width in WIDTHS:
             page.set_viewport_size({"width": width, "height": 900})
-            for name, url in self.pages().items():
+            for name, url in pages.items():
                 response = page.goto(self.live_server_url + url)
                 assert response.status in (200, 404), f"{name}: HTTP {response.status}"
+                if page.locator("#flamegraph").count():
+                    page.wait_for_function("() => document.getElementById('flamegraph').dataset.drawn === '1'")
+                    page.wait_for_timeout(800)  # d3-flame-graph's transitions
                 self.screenshot(f"layout_{name}_{width}.png")
                 broken = page.evaluate(BROKEN_WORDS)
                 if broken:
