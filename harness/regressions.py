@@ -16,7 +16,7 @@ from __future__ import annotations
 import statistics
 from dataclasses import dataclass, field
 
-from harness.compare import compare_pair
+from harness.compare import scored, attach_series, compare_pair, run_rows
 from harness.rules import SUCCESS_STATES, effective_state
 
 
@@ -81,26 +81,25 @@ def histories(machine: str, target: str | None = None, pattern: str | None = Non
     from harness.testcases import matches
 
     runs = (Run.objects.filter(machine__name=machine, replaced=False).exclude(build__committed_at=None)
-            .select_related("target", "testcase", "build")
-            # what a history reads (here, effective_state, compare_pair), nothing more: with 10,000 runs building
-            # the objects is most of the time, and a build's log is megabytes
-            .only("id", "name", "testcase_hash", "state", "replaced", "failure_reason", "failure_message", "finished",
-                  "stepping_time", "wall_time", "consistency", "consistency_min", "timing", "config", "machine_id",
-                  "target__name", "testcase__path", "build__commit", "build__committed_at")
             .order_by("target__name", "testcase__path", "name", "testcase_hash", "build__committed_at", "build_id"))
     if target:
         runs = runs.filter(target__name=target)
     grouped: dict = {}
-    for run in runs:
+    # plain rows of what a history reads (effective_state, compare_pair, the spread of repeats): with 10,000
+    # runs, model objects would be most of the time
+    for run in run_rows(runs, "target__name", "timing__stepping_repeats", "build__commit", "build__committed_at"):
         if matches(pattern, run.testcase.path, run.name):
-            grouped.setdefault((run.target.name, run.testcase.path, run.name, run.testcase_hash), []).append(run)
+            grouped.setdefault((run.target__name, run.testcase.path, run.name, run.testcase_hash), []).append(run)
+    # the series of the runs a history scores against the build before, read together
+    attach_series(list({id(r): r for series in grouped.values() for previous, run in zip(series, series[1:])
+                        if scored(previous, run) for r in (previous, run)}.values()))
     out = []
     for (target_name, testcase, name, _content), series in grouped.items():
         history = History(target_name, testcase, name)
         for run in series:
             history.points.append((run.build.commit, run.build.committed_at, run.stepping_time, run.wall_time,
                                    run.consistency_min, effective_state(run)))
-        spreads = [relative_spread(run.timing) for run in series]
+        spreads = [relative_spread({"stepping_repeats": run.timing__stepping_repeats}) for run in series]
         for i, ratio in speed_changes([p[2] for p in history.points], k, window, min_change, spreads):
             history.changes.append(Change(series[i].build.commit, series[i - 1].build.commit,
                                           "slower" if ratio > 1 else "faster",

@@ -328,30 +328,25 @@ def build_label(build) -> str:
     return f"{build.target.name}@{revision_label(build)}"
 
 
-def comparison_rows(comparison) -> list[dict]:
+def comparison_rows(comparison, limit: int | None = None) -> list[dict]:
     """The rows of ``harness compare`` (harness.compare.rows: same cells, same order), each with its pair so a
-    row can link to the two runs and their plots.
+    row can link to the two runs and their plots; the first ``limit`` of them (None: all).
 
     Each row's cells come from ``rows`` over that pair alone, so that the dashboard's cells are the CLI's; the
-    order is the one ``rows`` gives the whole comparison (outcome, then test case and run).
+    order is the one ``rows`` gives the whole comparison (harness.compare.row_order). Only the rows shown are
+    made: with 10,000 pairs, the others would cost most of the page's time.
     """
-    from harness.compare import Comparison, rows
+    from harness.compare import Comparison, row_order, rows
 
-    header, *table = rows(comparison)
-    rank = {}
-    for row in table:
-        rank.setdefault(row[2], len(rank))
     out = []
-    for pair in comparison.pairs:
+    for pair in sorted(comparison.pairs, key=row_order)[:limit]:
         single = Comparison(comparison.label_a, comparison.label_b, comparison.commit_a, comparison.commit_b,
                             [pair])
-        cells = rows(single)[1]
         link = None
         if pair.a is not None and pair.b is not None:
             link = reverse("compare") + "?" + urlencode({"run": [pair.a.pk, pair.b.pk]}, doseq=True)
-        out.append({"pair": pair, "cells": cells, "link": link,
+        out.append({"pair": pair, "cells": rows(single)[1], "link": link,
                     "failing": pair.outcome in ("new_failure", "inconsistent")})
-    out.sort(key=lambda r: (rank[r["pair"].outcome], r["pair"].testcase, r["pair"].run))
     return out
 
 

@@ -396,7 +396,7 @@ def commit_page(request, target, commit):
     """What a commit did to a target: its build on one machine (``?machine=NAME``, else the machine of its newest
     build of that commit), the verdict of its runs, and against the build of the commit before (history order):
     new failures, fixes, inconsistencies and the stepping-time change - what ``harness compare`` prints."""
-    from harness.compare import compare_builds, rows, summary
+    from harness.compare import HEADER, compare_builds, summary
     from harness.queries import fold_into_children, previous_builds
 
     target_row = get_object_or_404(Target, name=target)
@@ -416,10 +416,10 @@ def commit_page(request, target, commit):
         previous = Build.objects.select_related("target", "machine").defer("log").get(pk=previous.pk)
         comparison = compare_builds(previous, build, build.machine.name, presentation.build_label(previous),
                                     presentation.build_label(build))
-        table = presentation.comparison_rows(comparison)
         context.update({"a": previous, "b": build, "comparison": comparison, "summary": summary(comparison),
-                        "counts": comparison.counts(), "header": rows(comparison)[0], "previous": previous,
-                        "rows": table[:COMPARE_ROWS_SHOWN], "hidden_rows": len(table) - COMPARE_ROWS_SHOWN})
+                        "counts": comparison.counts(), "header": HEADER, "previous": previous,
+                        "rows": presentation.comparison_rows(comparison, COMPARE_ROWS_SHOWN),
+                        "hidden_rows": len(comparison.pairs) - COMPARE_ROWS_SHOWN})
     return render(request, "webfrontend/commit.html", context)
 
 
@@ -441,7 +441,7 @@ def _reference_and_current() -> tuple[int, int] | None:
 def compare_builds_page(request):
     """Two builds side by side: what ``harness compare A B`` prints (harness.compare.compare_builds), each row
     linking to the two runs' comparison with the consistency bands of B around A."""
-    from harness.compare import compare_builds, rows, summary
+    from harness.compare import HEADER, compare_builds, summary
 
     a_id, b_id = params.optional_id(request.GET, "a"), params.optional_id(request.GET, "b")
     defaulted = a_id is None and b_id is None
@@ -457,10 +457,10 @@ def compare_builds_page(request):
                                       f"{a.machine.name}; runs are compared on one machine")
         comparison = compare_builds(a, b, a.machine.name, presentation.build_label(a), presentation.build_label(b))
         # worst first; a page of ten thousand consistent rows helps nobody and takes seconds to draw
-        table = presentation.comparison_rows(comparison)
         context.update({"a": a, "b": b, "comparison": comparison, "summary": summary(comparison),
-                        "counts": comparison.counts(), "header": rows(comparison)[0],
-                        "rows": table[:COMPARE_ROWS_SHOWN], "hidden_rows": len(table) - COMPARE_ROWS_SHOWN})
+                        "counts": comparison.counts(), "header": HEADER,
+                        "rows": presentation.comparison_rows(comparison, COMPARE_ROWS_SHOWN),
+                        "hidden_rows": len(comparison.pairs) - COMPARE_ROWS_SHOWN})
     elif a_id is not None or b_id is not None:
         raise params.BadParameter("a and b: name both builds to compare")
     return render(request, "webfrontend/compare_builds.html", context)

@@ -18,8 +18,9 @@ class SearchTest(DashboardTest):
         from test_dashboard_views import cells, target_rows
 
         html = self.get("/?q=HOOKE").content.decode()  # any case
-        # dem-master's hooke runs: one failed, one not run, none passed; and they are listed
-        assert cells(target_rows(html)["dem-master"])[3:6] == ["0", "1", "1"]
+        # dem-master's hooke runs: one failed, one never executed (a failure of the gate), none passed; and
+        # they are listed
+        assert cells(target_rows(html)["dem-master"])[3:6] == ["0", "2", "0"]
         assert run_ids(html) == {self.s["failed"].pk, self.s["not_run"].pk}
         # the reference target ran no hooke case: not shown at all
         assert ">dem-v1</a>" not in html
