@@ -523,7 +523,7 @@ def matrix(request):
     every target's run against every other target's run of the same test case content, per quantity; each
     cell links to the comparison of the two runs with the code's run in the bands around the reference's."""
     machine, names, pattern, result = _matrix(request)
-    blocks, lowest, ids = [], [], {}
+    blocks, lowest = [], []
     if result is not None:
         from harness.matrix import _c
 
