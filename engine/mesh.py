@@ -128,6 +128,8 @@ def _stl_layout(file: Path, path: str) -> int | None:
             text = None
         if text is not None:
             facets, ends = len(re.findall(rb"\bfacet\b", text)), len(re.findall(rb"\bendfacet\b", text))
+            if facets == 0:
+                raise MeshError(f"file '{path}' is not an STL file with triangles (no 'facet')")
             if facets != ends or not re.search(rb"\bendsolid\b", text):
                 raise MeshError(f"file '{path}' is an ASCII STL file cut short ({facets} 'facet', {ends} "
                                 "'endfacet', " + ("an" if re.search(rb"\bendsolid\b", text) else "no")
