@@ -97,45 +97,62 @@ def check_run(run, reference_target: str | None) -> list[QuantityResult]:
     return results
 
 
+def gate_status(state: str, failure_accepted: bool, open_inconsistency: bool, allow_missing: bool = False) -> str:
+    """The gate's rule for one covered run: "passed", "failed" or "skipped" (shown as "not run").
+
+    A failed run fails unless a reviewer accepted its failure (``failure_accepted``); a run of the covered
+    build that was not executed fails unless ``allow_missing``, then it is skipped, as is an outdated run;
+    every other run passes unless it has an inconsistency no reviewer accepted (``open_inconsistency``).
+    The one home of this rule: ``verdict_of`` (the CLI, ``harness ci``, both JUnit writers) and the
+    dashboard's counts (``harness.queries.Tally``, from aggregated columns) call it."""
+    if state == "failed":
+        return "passed" if failure_accepted else "failed"
+    if state == "not_executed":
+        return "skipped" if allow_missing else "failed"
+    if state == "outdated":
+        return "skipped"
+    return "failed" if open_inconsistency else "passed"
+
+
 def verdict_of(run, results: list[QuantityResult], has_reference_target: bool,
                allow_missing: bool = False) -> RunVerdict:
-    """The verdict on one covered run (``harness.coverage``). A run of the covered build that was not executed
-    fails the gate (kind ``not_executed``, or ``stale`` when a run of earlier test case content exists)
-    unless ``allow_missing``: then it is skipped, as is an outdated run."""
+    """The verdict on one covered run (``harness.coverage``), its status by ``gate_status``, with the message
+    that says why: the failure, the stale or not executed run (kind ``stale`` when a run of earlier test
+    case content exists), the inconsistent quantities, and what reviewers accepted."""
     overrides = _overrides(run)
     whole = overrides.get("")
-    if run.state == "failed":
-        verdict = RunVerdict(run, "failed", f"{run.failure_reason}: {run.failure_message}", run.failure_reason)
-        if whole:
-            verdict.status, verdict.overridden = "passed", [f"run failure accepted by {whole}"]
-        return verdict
-    if run.state == "not_executed" and not allow_missing:
-        earlier = earlier_content_run(run)
-        if earlier is not None:
-            return RunVerdict(run, "failed", f"stale: the test case changed since this run (ran content "
-                              f"{earlier.short_hash}, now {run.short_hash}); run 'harness run {run.target.name}' "
-                              "again", "stale")
-        return RunVerdict(run, "failed", f"not executed: run 'harness run {run.target.name}' (or pass "
-                          "--allow-missing)", "not_executed")
-    if run.state in ("not_executed", "outdated"):
-        return RunVerdict(run, "skipped", f"run {run.get_state_display()}")
-    verdict = RunVerdict(run, "passed", results=results)
-    bad = []
-    for r in results:
+    bad, overridden = [], []
+    for r in results if run.state not in ("failed", "not_executed", "outdated") else ():
         if r.level not in FAILING_LEVELS:
             continue
         accepted = whole or next((overrides[k] for k in override_keys(r.series_name, r.quantity)
                                   if k in overrides), None)
         label = f"{r.series_name}:{r.quantity}" if r.series_kind != "thermo" else r.quantity
         if accepted:
-            verdict.overridden.append(f"{label} ({r.level}) accepted by {accepted}")
+            overridden.append(f"{label} ({r.level}) accepted by {accepted}")
             continue
         c = f"C = {r.value:.4g}" if r.value is not None else "no C"
         step = f", first bad step {r.first_bad_step:g}" if r.first_bad_step is not None else ""
         bad.append(f"{label}: {r.level}, {c}{step}" + (f" ({r.message})" if r.message else ""))
+    status = gate_status(run.state, bool(whole), bool(bad), allow_missing)
+    if run.state == "failed":
+        verdict = RunVerdict(run, status, f"{run.failure_reason}: {run.failure_message}", run.failure_reason)
+        if whole:
+            verdict.overridden = [f"run failure accepted by {whole}"]
+        return verdict
+    if run.state == "not_executed" and status == "failed":
+        earlier = earlier_content_run(run)
+        if earlier is not None:
+            return RunVerdict(run, status, f"stale: the test case changed since this run (ran content "
+                              f"{earlier.short_hash}, now {run.short_hash}); run 'harness run {run.target.name}' "
+                              "again", "stale")
+        return RunVerdict(run, status, f"not executed: run 'harness run {run.target.name}' (or pass "
+                          "--allow-missing)", "not_executed")
+    if status == "skipped":
+        return RunVerdict(run, status, f"run {run.get_state_display()}")
+    verdict = RunVerdict(run, status, results=results, overridden=overridden)
     if bad:
-        verdict.status, verdict.kind = "failed", "inconsistent"
-        verdict.message = "; ".join(bad)
+        verdict.kind, verdict.message = "inconsistent", "; ".join(bad)
     elif has_reference_target and run.consistency == "no_reference":
         verdict.message = "no reference run to compare with"
     return verdict

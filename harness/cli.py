@@ -19,6 +19,7 @@ import sys
 
 from pathlib import Path
 
+from harness import textout
 from harness.adapters.base import UserError
 from harness.workspace import Workspace, segment_problem, use_workspace, workspace
 
@@ -47,6 +48,8 @@ def _global_options(parser, defaults: bool) -> None:
                         "$HARNESS_HOME, else .harness/ in the project)")
     parser.add_argument("--targets", dest="targets_dir", default=default(None), help="folder of target "
                         "definitions (default: $HARNESS_TARGETS, else targets/ of the project)")
+    parser.add_argument("--wide", action="store_true", default=default(False),
+                        help="print tables whole, however wide (default: they fit 120 columns)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -106,6 +109,7 @@ def _dispatch(args_list: list[str]) -> int:
         print(f"harness: error: {problem}", file=sys.stderr)
         return 1
     previous = signal.signal(signal.SIGTERM, _terminate) if _in_main_thread() else None
+    textout.set_width(None if args.wide else textout.DEFAULT_WIDTH)
     try:
         return int(args._run(args) or 0)
     except UserError as exc:
@@ -121,6 +125,7 @@ def _dispatch(args_list: list[str]) -> int:
         print(f"harness: error: {line}", file=sys.stderr)
         return 1
     finally:
+        textout.set_width(textout.DEFAULT_WIDTH)
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
 

@@ -87,8 +87,11 @@ class Comparison:
         return math.exp(sum(math.log(r) for r in ratios) / len(ratios)) if ratios else None
 
     def counts(self) -> dict:
-        names = ("consistent", "inconsistent", "new_failure", "fixed", "still_failing", "only_a", "only_b")
-        return {name: len(self.outcomes(name)) for name in names}
+        out = dict.fromkeys(("consistent", "inconsistent", "new_failure", "fixed", "still_failing", "only_a",
+                             "only_b"), 0)
+        for pair in self.pairs:
+            out[pair.outcome] += 1
+        return out
 
     def as_dict(self) -> dict:
         return {"a": {"label": self.label_a, "commit": self.commit_a},
@@ -106,8 +109,72 @@ def _run_summary(run) -> dict | None:
 
 
 def _series(run) -> list[dict]:
+    if isinstance(run, RunRow):
+        if run.series is None:
+            attach_series([run])
+        return run.series
     return [{"kind": s.kind, "name": s.name, "x_column": s.x_column, "columns": s.columns}
             for s in run.series.all()]
+
+
+class RunRow:
+    """A run as a comparison or a history reads it, from a plain row of the store (``ROW_FIELDS``): with
+    10,000 runs, building Django model objects is most of a page's time. ``testcase.path`` and ``build``'s
+    ``commit`` / ``committed_at`` are there as on a model; ``series`` and ``config`` are filled by
+    ``attach_series`` for the runs that are scored; any other field (breakdown, folder, ...) is read from the
+    store when first asked (``model``)."""
+
+    def __init__(self, row: dict):
+        self.__dict__ = fields = row  # the row is this object's fields: nothing copied
+        fields["pk"] = row["id"]
+        fields["testcase"] = _Named(path=fields.pop("testcase__path"))
+        if "build__commit" in row:
+            fields["build"] = _Named(commit=fields.pop("build__commit"),
+                                     committed_at=fields.pop("build__committed_at", None))
+        fields["series"] = None
+
+    def __getattr__(self, name):  # called only for the fields the row does not hold
+        if name.startswith("_"):
+            raise AttributeError(name)
+        if name == "model":
+            from harness.models import Run
+
+            self.model = Run.objects.get(pk=self.id)
+            return self.model
+        return getattr(self.model, name)
+
+
+class _Named:
+    def __init__(self, **fields):
+        self.__dict__.update(fields)
+
+
+#: the columns a comparison or a history reads of every run
+ROW_FIELDS = ("id", "testcase__path", "name", "testcase_hash", "state", "replaced", "failure_reason",
+              "failure_message", "finished", "consistency", "consistency_min", "stepping_time", "wall_time",
+              "target_id", "build_id")
+
+
+def run_rows(runs, *extra: str) -> list[RunRow]:
+    """The runs of a Run QuerySet as RunRow objects (``extra``: more columns, e.g. build__commit)."""
+    return [RunRow(row) for row in runs.values(*ROW_FIELDS, *extra)]
+
+
+def attach_series(rows: list[RunRow], chunk: int = 500) -> None:
+    """Read the data series and the run.config of ``rows`` in a few queries (``chunk`` runs each)."""
+    from harness.models import Run, Series
+
+    by_id = {row.pk: row for row in rows}
+    for row in rows:
+        row.series = []
+    ids = list(by_id)
+    for start in range(0, len(ids), chunk):
+        part = ids[start:start + chunk]
+        for run_id, config in Run.objects.filter(pk__in=part).values_list("id", "config"):
+            by_id[run_id].config = config
+        for s in (Series.objects.filter(run_id__in=part).order_by("pk")
+                  .values("run_id", "kind", "name", "x_column", "columns")):
+            by_id[s.pop("run_id")].series.append(s)
 
 
 def max_relative_deviation(a_series: list[dict], b_series: list[dict], kind: str, name: str,
@@ -133,6 +200,11 @@ def max_relative_deviation(a_series: list[dict], b_series: list[dict], kind: str
         return math.inf
     largest = float(deviation.max())
     return largest / scale if scale > 0 else (0.0 if largest == 0 else math.inf)
+
+
+def scored(a, b) -> bool:
+    """Whether ``compare_pair`` scores the quantities of A and B (both ran and succeeded)."""
+    return effective_state(a) in SUCCESS_STATES and effective_state(b) in SUCCESS_STATES
 
 
 def compare_pair(a, b) -> PairComparison:
@@ -167,15 +239,19 @@ def compare_builds(build_a, build_b, machine: str, label_a: str, label_b: str, p
 
     def runs_of(build):
         found = {}
-        for run in (Run.objects.filter(build=build, machine__name=machine, replaced=False)
-                    .select_related("testcase").order_by("testcase__path", "name")):
+        for run in run_rows(Run.objects.filter(build=build, machine__name=machine, replaced=False)
+                            .order_by("testcase__path", "name")):
             if matches(pattern, run.testcase.path, run.name):
                 found[(run.testcase.path, run.name, run.testcase_hash)] = run
         return found
 
     runs_a, runs_b = runs_of(build_a), runs_of(build_b)
     comparison = Comparison(label_a, label_b, build_a.commit, build_b.commit)
-    for key in sorted(set(runs_a) | set(runs_b)):
+    keys = sorted(set(runs_a) | set(runs_b))
+    # the series of the pairs that are scored, read together
+    attach_series([run for key in keys if key in runs_a and key in runs_b and scored(runs_a[key], runs_b[key])
+                   for run in (runs_a[key], runs_b[key])])
+    for key in keys:
         a, b = runs_a.get(key), runs_b.get(key)
         if a is not None and b is not None:
             comparison.pairs.append(compare_pair(a, b))
@@ -194,13 +270,22 @@ def _dev(value) -> str:
     return "-" if value is None else ("inf" if math.isinf(value) else f"{value:.3g}")
 
 
+#: the columns of a comparison's table
+HEADER = ("test case", "run", "outcome", "min C", "worst quantity", "max rel dev", "first bad step", "stepping B/A")
+#: the order of a comparison's rows: the worst outcomes first
+OUTCOME_ORDER = {"new_failure": 0, "inconsistent": 1, "fixed": 2, "still_failing": 3, "only_a": 4, "only_b": 5,
+                 "consistent": 6}
+
+
+def row_order(pair: PairComparison) -> tuple:
+    """Sort key of a pair in ``rows``: outcome (``OUTCOME_ORDER``), test case, run."""
+    return OUTCOME_ORDER[pair.outcome], pair.testcase, pair.run
+
+
 def rows(comparison: Comparison) -> list[tuple]:
     """Table rows: one per pair, worst quantity first."""
-    out = [("test case", "run", "outcome", "min C", "worst quantity", "max rel dev", "first bad step",
-            "stepping B/A")]
-    order = {"new_failure": 0, "inconsistent": 1, "fixed": 2, "still_failing": 3, "only_a": 4, "only_b": 5,
-             "consistent": 6}
-    for pair in sorted(comparison.pairs, key=lambda p: (order[p.outcome], p.testcase, p.run)):
+    out = [HEADER]
+    for pair in sorted(comparison.pairs, key=row_order):
         worst = min(pair.quantities, key=lambda q: (q.value is not None, q.value or 0.0), default=None)
         detail = ""
         if pair.outcome in ("new_failure", "still_failing", "fixed"):

@@ -35,6 +35,9 @@ LENGTH_MISMATCH, MISSING = "length_mismatch", "missing"
 FAILING_LEVELS = (INCONSISTENT, LENGTH_MISMATCH, MISSING)
 #: thermo columns that measure the computer, not the physics
 NOT_PHYSICS = {"cpu", "cpuremain", "elapsed", "elaplong", "wall", "wall_time", "walltime"}
+#: thermo columns that are an axis (the step, the simulated time = steps x dt): neither scored nor plotted as
+#: quantities unless run.config's ``consistency`` names them (e.g. ``{"time": {}}`` when dt is under test)
+AXIS_COLUMNS = {"step", "time"}
 #: thermo quantities every run must have (thesis 4.4.1); other reference columns are compared when present
 REQUIRED_THERMO = ("atoms", "ke", "rke")
 RELATIVE_FLOOR = 1e-6
@@ -168,6 +171,11 @@ def compare_words(name: str, ref_words: list[str], words: list[str], settings: d
     return QuantityResult("textfile", name, "words", value, level_of(value), float(eps[worst]), None, msg)
 
 
+def axis_asked(overrides: dict | None, series_name: str, column: str) -> bool:
+    """Whether run.config's ``consistency`` names an axis column (``time`` or ``thermo:time``) to be scored."""
+    return bool(overrides) and (column in overrides or f"{series_name}:{column}" in overrides)
+
+
 def _settings_for(overrides: dict, *names: str) -> dict:
     for name in names:
         if name in overrides:
@@ -202,6 +210,8 @@ def compare_runs(series: list[dict], reference: list[dict], overrides: dict | No
         x_column = ref.get("x_column") or next(iter(ref["columns"]))
         for quantity, values in ref["columns"].items():
             if quantity == x_column or (kind == "thermo" and quantity.lower() in NOT_PHYSICS):
+                continue
+            if kind == "thermo" and quantity.lower() in AXIS_COLUMNS and not axis_asked(overrides, name, quantity):
                 continue
             settings = _settings_for(overrides, quantity, f"{name}:{quantity}", name)
             if settings.get("ignore"):

@@ -368,6 +368,8 @@ def execute(spec: dict) -> dict:
 
         profiles.finish(spec, folder, record)
     _classify(record, code, timed_out, scan, float(spec.get("timeout") or 600))
+    if int(spec.get("repeat") or 1) > 1 and record["state"] != "failed" and record["stepping_time"]:
+        _repeat(spec, folder, record, adapter)
     if missing and record["state"] != "failed":
         fail(record, "missing_output", missing)
     try:
@@ -377,6 +379,28 @@ def execute(spec: dict) -> dict:
             fail(record, "post_processing", f"{type(exc).__name__}: {exc}")
     write_record(record)
     return record
+
+
+def _repeat(spec: dict, folder: Path, record: dict, adapter) -> None:
+    """``harness run --repeat N``: run the engine N - 1 more times in the run folder (the engine's results
+    are the same bytes each time) and keep every stepping time in ``timing["stepping_repeats"]`` (s, in
+    order); the run's stepping time becomes their median. A repeat that fails or times out ends the
+    series (the first run's outcome stands)."""
+    import statistics
+
+    times = [record["stepping_time"]]
+    for _ in range(int(spec["repeat"]) - 1):
+        code, timed_out = _run_engine(spec, folder, record)
+        if code != 0 or timed_out or _interrupted.is_set():
+            break
+        try:
+            again = runrecord.stepping_time_of(adapter.read_timing(folder))
+        except UserError:
+            break
+        if again:
+            times.append(again)
+    record["timing"] = {**record["timing"], "stepping_repeats": times}
+    record["stepping_time"] = statistics.median(times)
 
 
 def postprocess_run(spec: dict, folder: Path, record: dict, adapter) -> None:

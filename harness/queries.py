@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from django.db import models
-from django.db.models import Count, Exists, Min, OuterRef, Q, Sum, Value
+from django.db.models import Count, Exists, Max, Min, OuterRef, Q, Sum, Value
 from django.db.models.functions import Concat
 
 from harness.rules import CONSISTENT_LEVELS, OVERRIDE_SEPARATORS, SUCCESS_STATES, find_reference_run
@@ -18,6 +18,18 @@ from harness.rules import CONSISTENT_LEVELS, OVERRIDE_SEPARATORS, SUCCESS_STATES
 #: outcome categories of the two overview modes, in display order
 STATE_CATEGORIES = ("successful", "failed", "not_executed", "outdated")
 CONSISTENCY_CATEGORIES = ("consistent", "inconsistent", "not_checked")
+#: what ``harness check`` says of a run (harness.check.gate_status): passed, failed, or not run (skipped)
+VERDICT_CATEGORIES = ("passed", "failed", "not_run")
+
+
+def verdict_category(state: str, consistency: str, accepted: bool) -> str:
+    """The verdict category of a run from the columns an aggregation keeps (``accepted``: a reviewer
+    overruled it, ``accepted_expression``), by the gate's one rule ``harness.check.gate_status``."""
+    from harness.check import gate_status  # harness.check reads the store: imported when first counted
+
+    status = gate_status(state, failure_accepted=accepted,
+                         open_inconsistency=consistency == "inconsistent" and not accepted)
+    return "not_run" if status == "skipped" else status
 
 
 def state_category(state: str) -> str:
@@ -77,6 +89,10 @@ class Tally:
     run_time: float = 0.0
     lowest_c: float | None = None
     accepted: int = 0
+    #: runs per harness check verdict (VERDICT_CATEGORIES)
+    verdicts: dict = field(default_factory=dict)
+    #: when the latest of the runs started (None: none started)
+    last_started: object = None
 
     @property
     def total(self) -> int:
@@ -91,6 +107,10 @@ class Tally:
         self.run_time += row["time"] or 0.0
         if row["accepted"]:
             self.accepted += n
+        verdict = verdict_category(row["state"], row["consistency"], row["accepted"])
+        self.verdicts[verdict] = self.verdicts.get(verdict, 0) + n
+        if row.get("last") is not None and (self.last_started is None or row["last"] > self.last_started):
+            self.last_started = row["last"]
         if row["cmin"] is not None and (self.lowest_c is None or row["cmin"] < self.lowest_c):
             self.lowest_c = row["cmin"]
 
@@ -105,6 +125,14 @@ class Tally:
         if self.total and share >= 1.0:
             return "green"
         return "red" if share < 0.25 else "blue"
+
+    @property
+    def verdict(self) -> str:
+        """The verdict of all these runs as ``harness check`` gives it: failed when any run failed, passed when
+        any passed and none failed, not run when none ran."""
+        if self.verdicts.get("failed"):
+            return "failed"
+        return "passed" if self.verdicts.get("passed") else "not_run"
 
     def matches(self, category: str | None) -> bool:
         """Whether this entry holds runs of the filtered category (no filter: always)."""
@@ -150,6 +178,71 @@ def fold_into_children(rows, prefix: str) -> tuple[list[Tally], Tally]:
     return [children[k] for k in sorted(children)], whole
 
 
+def previous_builds(builds) -> dict:
+    """For each of ``builds``: the build of its target on its machine just before it by commit date (then
+    start), or None - the order of history (``RunQuerySet.history``). One query."""
+    from harness.models import Build
+
+    builds = list(builds)
+    order = ("committed_at", "started", "id")
+    earlier: dict = {}
+    for b in (Build.objects.filter(target_id__in={b.target_id for b in builds},
+                                   machine_id__in={b.machine_id for b in builds})
+              .exclude(committed_at=None).only("id", "target_id", "machine_id", "commit", "committed_at", "started")):
+        earlier.setdefault((b.target_id, b.machine_id), []).append(b)
+
+    def key(b):
+        return tuple((getattr(b, f) is None, getattr(b, f)) for f in order)
+
+    out = {}
+    for build in builds:
+        if build.committed_at is None:
+            out[build.pk] = None
+            continue
+        before = [b for b in earlier.get((build.target_id, build.machine_id), []) if key(b) < key(build)]
+        out[build.pk] = max(before, key=key) if before else None
+    return out
+
+
+def stepping_changes(builds) -> dict:
+    """Stepping time of each of ``builds`` against the build before it (``previous_builds``).
+
+    The runs of both builds are paired by test case and run name (the shortest stepping time of each, in s);
+    the change is the geometric mean of the ratios now / before over the pairs, so that a 5 ms test counts
+    as much as a 5 s one; ``noise`` is the median over the pairs of the larger measured spread of repeated
+    stepping times (harness.regressions.relative_spread, ``harness run --repeat``; 0 without repeats).
+    Returns ``{build id: {"ratio", "pairs", "previous" (Build), "noise"}}`` for the builds with at least one
+    pair. Two queries.
+    """
+    import math
+    import statistics
+
+    from harness.models import Run
+
+    previous = {pk: b for pk, b in previous_builds(builds).items() if b is not None}
+    if not previous:
+        return {}
+    from harness.regressions import relative_spread
+
+    times: dict = {}
+    for build_id, testcase_id, name, stepping, timing in (
+            Run.objects.filter(build_id__in=set(previous) | {b.pk for b in previous.values()}, replaced=False,
+                               stepping_time__gt=0)
+            .order_by("stepping_time").values_list("build_id", "testcase_id", "name", "stepping_time", "timing")):
+        # the shortest stepping time of each run configuration, with the spread of its repeats
+        times.setdefault(build_id, {}).setdefault((testcase_id, name), (stepping, relative_spread(timing)))
+    out = {}
+    for pk, before in previous.items():
+        now, then = times.get(pk, {}), times.get(before.pk, {})
+        shared = now.keys() & then.keys()
+        if shared:
+            logs = [math.log(now[k][0] / then[k][0]) for k in shared]
+            noise = statistics.median(max(now[k][1], then[k][1]) for k in shared)
+            out[pk] = {"ratio": math.exp(sum(logs) / len(logs)), "pairs": len(logs), "previous": before,
+                       "noise": noise}
+    return out
+
+
 class BuildQuerySet(models.QuerySet):
     """Builds, for the overview's failures and the build page."""
 
@@ -182,7 +275,7 @@ class RunQuerySet(models.QuerySet):
         """
         return (self.with_accepted()
                 .values(*group_by, "testcase__path", "state", "consistency", "accepted")
-                .annotate(n=Count("id"), time=Sum("wall_time"), cmin=Min("consistency_min"))
+                .annotate(n=Count("id"), time=Sum("wall_time"), cmin=Min("consistency_min"), last=Max("started"))
                 .order_by())
 
     def overview(self) -> list[dict]:

@@ -16,7 +16,7 @@ from __future__ import annotations
 import statistics
 from dataclasses import dataclass, field
 
-from harness.compare import compare_pair
+from harness.compare import scored, attach_series, compare_pair, run_rows
 from harness.rules import SUCCESS_STATES, effective_state
 
 
@@ -38,21 +38,40 @@ class History:
     changes: list[Change] = field(default_factory=list)
 
 
-def speed_changes(times: list[float | None], k: float = 3.0, window: int = 5, min_change: float = 0.1
-                  ) -> list[tuple[int, float]]:
+def relative_spread(timing) -> float:
+    """The measured noise of a run's stepping time: (max - min) / median of its repeated stepping times
+    (``timing["stepping_repeats"]``, ``harness run --repeat N``); 0 without repeats."""
+    repeats = [t for t in ((timing or {}).get("stepping_repeats") or []) if isinstance(t, (int, float)) and t > 0]
+    if len(repeats) < 2:
+        return 0.0
+    return (max(repeats) - min(repeats)) / statistics.median(repeats)
+
+
+def speed_changes(times: list[float | None], k: float = 3.0, window: int = 5, min_change: float = 0.1,
+                  spreads: list[float] | None = None) -> list[tuple[int, float]]:
     """Indices whose stepping time leaves mean +/- k sd of the previous ``window`` values by at least
-    ``min_change`` (relative), with the ratio to that mean."""
+    ``min_change`` (relative) and by more than the measured spread (``relative_spread`` of that build's run
+    and of the runs before it: a change inside the noise of repeated runs is no change), with the ratio to
+    that mean."""
     out = []
+    spreads = spreads or [0.0] * len(times)
     for i, value in enumerate(times):
-        before = [t for t in times[max(0, i - window):i] if t]
+        window_at = range(max(0, i - window), i)
+        before = [times[j] for j in window_at if times[j]]
         if not value or len(before) < 2:
             continue
         mean = statistics.fmean(before)
         sd = statistics.stdev(before)
         ratio = value / mean
-        if abs(value - mean) > k * sd and abs(ratio - 1.0) >= min_change:
+        noise = max([spreads[i]] + [spreads[j] for j in window_at])
+        if abs(value - mean) > k * sd and abs(ratio - 1.0) >= max(min_change, noise):
             out.append((i, ratio))
     return out
+
+
+def comparable(found: list[History]) -> int:
+    """How many of the histories have runs of at least two builds: only those can show a change."""
+    return sum(len({p[0] for p in h.points}) >= 2 for h in found)
 
 
 def histories(machine: str, target: str | None = None, pattern: str | None = None, k: float = 3.0,
@@ -62,21 +81,26 @@ def histories(machine: str, target: str | None = None, pattern: str | None = Non
     from harness.testcases import matches
 
     runs = (Run.objects.filter(machine__name=machine, replaced=False).exclude(build__committed_at=None)
-            .select_related("target", "testcase", "build")
             .order_by("target__name", "testcase__path", "name", "testcase_hash", "build__committed_at", "build_id"))
     if target:
         runs = runs.filter(target__name=target)
     grouped: dict = {}
-    for run in runs:
+    # plain rows of what a history reads (effective_state, compare_pair, the spread of repeats): with 10,000
+    # runs, model objects would be most of the time
+    for run in run_rows(runs, "target__name", "timing__stepping_repeats", "build__commit", "build__committed_at"):
         if matches(pattern, run.testcase.path, run.name):
-            grouped.setdefault((run.target.name, run.testcase.path, run.name, run.testcase_hash), []).append(run)
+            grouped.setdefault((run.target__name, run.testcase.path, run.name, run.testcase_hash), []).append(run)
+    # the series of the runs a history scores against the build before, read together
+    attach_series(list({id(r): r for series in grouped.values() for previous, run in zip(series, series[1:])
+                        if scored(previous, run) for r in (previous, run)}.values()))
     out = []
     for (target_name, testcase, name, _content), series in grouped.items():
         history = History(target_name, testcase, name)
         for run in series:
             history.points.append((run.build.commit, run.build.committed_at, run.stepping_time, run.wall_time,
                                    run.consistency_min, effective_state(run)))
-        for i, ratio in speed_changes([p[2] for p in history.points], k, window, min_change):
+        spreads = [relative_spread({"stepping_repeats": run.timing__stepping_repeats}) for run in series]
+        for i, ratio in speed_changes([p[2] for p in history.points], k, window, min_change, spreads):
             history.changes.append(Change(series[i].build.commit, series[i - 1].build.commit,
                                           "slower" if ratio > 1 else "faster",
                                           f"stepping time {ratio:.2f}x the mean of the previous builds",

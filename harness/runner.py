@@ -31,6 +31,7 @@ from harness.builds import BuildError, build_target, failed_build, record_build_
 from harness.rules import SUCCESS_STATES, effective_state
 from harness.targets import TargetDefinition
 from harness.testcases import RunEntry, TestCaseSpec, discover
+from harness.textout import format_table  # noqa: F401  (the commands import it from here)
 from harness.workspace import workspace
 
 
@@ -44,6 +45,8 @@ class RunOptions:
     working_tree: bool = False
     scheduler: str | None = None
     force_build: bool = False
+    #: executions of each run whose stepping times are kept (``harness run --repeat N``)
+    repeat: int = 1
     profile: bool = False              # record a profile of every run (harness.profiles)
 
 
@@ -197,6 +200,9 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
     # a run is the same run only at the same test case content: an edited scene is run again
     existing = {(r.testcase.path, r.name, r.testcase_hash): r for r in
                 Run.objects.filter(machine__name=options.machine, build=build).select_related("testcase")}
+    if adapter.first_run_note and not any(r.stepping_time or r.state in SUCCESS_STATES for r in existing.values()):
+        # a new build sits silent for a while before its first run reports (the bundled engine: kernels)
+        say(f"{target.name}@{build.commit[:10]}: first runs of this build: {adapter.first_run_note}")
     tasks: dict[tuple, Task] = {}
 
     def add(testcase: TestCaseSpec, entry: RunEntry, force: bool = False) -> None:
@@ -204,6 +210,8 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
         if key in tasks:
             return
         spec = make_spec(target, info, adapter, options.machine, testcase, entry)
+        if options.repeat > 1:
+            spec["repeat"] = options.repeat
         if (options.profile or entry.config.get("profile")) and not entry.problems:
             from harness import profiles
 
@@ -547,9 +555,3 @@ def summary_table(records: list[dict]) -> str:
                      f"{cost:.3f}" if cost is not None else "-"))
     return format_table(rows)
 
-
-def format_table(rows: list[tuple]) -> str:
-    widths = [max(len(str(row[i])) for row in rows) for i in range(len(rows[0]))]
-    lines = ["  ".join(str(cell).ljust(width) for cell, width in zip(row, widths)).rstrip() for row in rows]
-    lines.insert(1, "  ".join("-" * w for w in widths))
-    return "\n".join(lines)

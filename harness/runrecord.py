@@ -172,8 +172,8 @@ def _length_problems(data: dict) -> list[str]:
         if isinstance(series, dict):
             limits += [(f"$.series[{i}].{key}", series.get(key), Series, key) for key in ("name", "x_column")]
     problems = []
-    for where, value, model, field in limits:
-        limit = model._meta.get_field(field).max_length
+    for where, value, model, column in limits:
+        limit = model._meta.get_field(column).max_length
         if isinstance(value, str) and limit and len(value) > limit:
             problems.append(f"{where}: {len(value)} characters, more than the store holds ({limit})")
     return problems

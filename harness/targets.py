@@ -64,6 +64,9 @@ A target is a named build of a DEM code at a git revision. Fields (all optional 
     mapping of the harness' thermo names onto the engine's column names, e.g. ``{"ke": "KinEng"}``.
 ``mpi_launcher``
     launcher prefix for mpi runs (default ``["mpirun"]``), a non-empty list of strings.
+``commit_url``
+    the repository's web view of one commit, with ``{commit}`` where the commit goes, e.g.
+    ``"https://github.com/CFDEMproject/LIGGGHTS-PUBLIC/commit/{commit}"``; the dashboard links commits there.
 
 The target's name is its file name without ``.json``; it names folders in the workspace, so it must be a
 safe single path segment (``harness.workspace.segment_problem``), as must ``reference`` and every part of
@@ -87,7 +90,7 @@ RECIPES = ("dem", "make", "cmake", "system")
 KNOWN_KEYS = {
     "repository", "revision", "recipe", "source_folder", "make_target", "make_variables", "make_jobs",
     "generated_executable", "executable", "engine", "testcases", "testcases_repository", "testcases_revision",
-    "reference", "thermo_columns", "mpi_launcher", "description",
+    "reference", "thermo_columns", "mpi_launcher", "description", "commit_url",
     "configure", "cmake_options", "build_type", "build_targets", "prebuild", "postbuild", "env", "jobs",
     "ccache", "export", "requires", "patches", "on_demand",
 }
@@ -196,9 +199,13 @@ def parse_target(name: str, data, path: Path) -> TargetDefinition:
     for key in sorted(set(data) - KNOWN_KEYS):
         problems.add(json_path(key), f"unknown field (known: {', '.join(sorted(KNOWN_KEYS))})")
     for key in ("repository", "revision", "recipe", "source_folder", "make_target", "generated_executable",
-                "executable", "engine", "testcases_repository", "testcases_revision", "reference", "description"):
+                "executable", "engine", "testcases_repository", "testcases_revision", "reference", "description",
+                "commit_url"):
         if key in data:
             expect_type(problems, json_path(key), data[key], str, "a string")
+    if isinstance(data.get("commit_url"), str) and "{commit}" not in data["commit_url"]:
+        problems.add(json_path("commit_url"), "must hold {commit} where the commit goes, "
+                     "e.g. https://example.org/repo/commit/{commit}")
     recipe = data.get("recipe") or ("make" if "make_target" in data else "system" if "executable" in data
                                     else "dem")
     if recipe not in RECIPES:
@@ -448,6 +455,16 @@ def select_targets(names: list[str], folder: Path | None = None) -> tuple[list[T
             known = ", ".join(sorted(all_targets)) or "none"
             raise UserError(f"unknown target {name!r} (known in {folder or targets_dir()}: {known})")
     return chosen, problems
+
+
+def with_testcases(target: TargetDefinition, folder: str | Path | None) -> TargetDefinition:
+    """``target`` with its test case folders replaced by ``folder`` (made absolute: read as it is on disk, no
+    git), for ``harness run --testcases`` and ``harness validate --testcases``; unchanged without one."""
+    import dataclasses
+
+    if not folder:
+        return target
+    return dataclasses.replace(target, testcases=[str(Path(folder).expanduser().resolve())])
 
 
 def reference_of(target: TargetDefinition, folder: Path | None = None) -> TargetDefinition | None:

@@ -99,15 +99,21 @@ def _declared_label(text: str) -> str:
     return text.replace("_", " ")
 
 
-def quantities(series) -> list[str]:
+def quantities(series, consistency: dict | None = None) -> list[str]:
     """Plottable columns of a series: numeric lists other than the abscissa, in the order the series had when
-    it was read (``meta["order"]``: PostgreSQL's jsonb keeps no key order), else in stored order."""
+    it was read (``meta["order"]``: PostgreSQL's jsonb keeps no key order), else in stored order. A thermo
+    axis column (step, time: harness.consistency.AXIS_COLUMNS) is left out unless the run configuration's
+    ``consistency`` names it, as the check does."""
+    from harness.consistency import AXIS_COLUMNS, axis_asked
+
     cols = series.columns if isinstance(series.columns, dict) else {}
     order = (series.meta or {}).get("order")
     names = [n for n in order if n in cols] + [n for n in cols if n not in order] if isinstance(order, list) \
         else list(cols)
     return [name for name in names
             if name != series.x_column and isinstance(cols[name], list) and cols[name]
+            and not (series.kind == "thermo" and name.lower() in AXIS_COLUMNS
+                     and not axis_asked(consistency, series.name, name))
             and all(isinstance(v, (int, float)) or v is None for v in cols[name][:50])]
 
 
@@ -201,15 +207,20 @@ def series_plot(curves: list[tuple[str, object]], quantity: str | None, overlays
     series = [{"label": label, "values": v, "color": PALETTE[i % len(PALETTE)], "dash": i % 2 == 1}
               for i, (label, v) in enumerate(zip(labels, values))]
     bands = []
+    add_overlays(series, bands, len(x), overlays)
+    title, ylabel = _titles(first, quantity, columns)
+    return plot(title, xlabel, ylabel, x, series, bands=bands)
+
+
+def add_overlays(series: list[dict], bands: list[dict], length: int, overlays: list[dict] | None) -> None:
+    """Expectation lines and bands (``expectation_overlays``) appended to a plot's series and bands."""
     for overlay in overlays or []:
         base = len(series)
-        for j, line in enumerate(overlay["lines"]):
-            series.append({"label": line["label"], "values": [line["y"]] * len(x), "color": overlay["color"],
+        for line in overlay["lines"]:
+            series.append({"label": line["label"], "values": [line["y"]] * length, "color": overlay["color"],
                            "dash": True, "width": 1})
         if overlay.get("band") and len(overlay["lines"]) == 2:
             bands.append({"upper": base + 1, "lower": base, "fill": overlay["fill"]})
-    title, ylabel = _titles(first, quantity, columns)
-    return plot(title, xlabel, ylabel, x, series, bands=bands)
 
 
 def difference_plot(curves: list[tuple[str, object]], quantity: str) -> dict | None:
@@ -334,7 +345,8 @@ def clipped_c(values: list[float | None]) -> tuple[list[float | None], list[floa
 
 
 def history_plots(labels: list[str], lines: dict[str, dict], changes: list[dict], title: str) -> list[dict]:
-    """C, stepping time and wall time of a test case's run configurations over the commits of a target.
+    """C, stepping time (log axis) and start-up (wall - stepping time: process start, kernel compilation,
+    output; log axis) of a test case's run configurations over the commits of a target.
 
     ``labels`` are the commits oldest first (the abscissa is their index); ``lines`` maps a run
     configuration name to ``{"c": [...], "stepping": [...], "wall": [...]}`` (None where it has no run);
@@ -342,25 +354,39 @@ def history_plots(labels: list[str], lines: dict[str, dict], changes: list[dict]
     """
     markers = [{"x": c["index"], "label": c["label"], "color": MARKER_COLOR} for c in changes]
     x = list(range(len(labels)))
-    c_series, t_series = [], []
+    c_series, t_series, o_series = [], [], []
     limits = None
     for i, (name, line) in enumerate(sorted(lines.items())):
         drawn, true, clip = clipped_c(line["c"])
         limits = clip or limits
         c_series.append({"label": f"{name} lowest C", "values": drawn, "hover": true,
                          "color": PALETTE[i % len(PALETTE)], "points": True})
-        t_series.append({"label": f"{name} stepping time", "values": line["stepping"],
+        t_series.append({"label": f"{name} stepping time", "values": positive(line["stepping"]),
                          "color": PALETTE[i % len(PALETTE)], "points": True})
-        t_series.append({"label": f"{name} wall time", "values": line["wall"], "color": PALETTE[i % len(PALETTE)],
-                         "dash": True, "points": True})
+        overhead = [None if w is None or t is None else w - t for w, t in zip(line["wall"], line["stepping"])]
+        o_series.append({"label": f"{name} start-up", "values": positive(overhead),
+                         "color": PALETTE[i % len(PALETTE)], "dash": True, "points": True})
     c_series += [{"label": "C = 0.95 (perfect)", "values": [0.95] * len(x), "color": "#2e8b57", "dash": True,
                   "width": 1},
                  {"label": "C = 0.90 (good)", "values": [0.90] * len(x), "color": "#d68910", "dash": True,
                   "width": 1}]
-    return [plot(f"{title}: lowest consistency C per commit", "commit (oldest first)", "lowest C [1]", x,
-                 c_series, markers=markers, xticks=labels, ylimits=limits),
-            plot(f"{title}: time per commit", "commit (oldest first)", "time [s]", x, t_series,
-                 markers=markers, xticks=labels)]
+    # speed on its own log axis: a 5 ms test and a 5 s one both show their changes; start-up (process start,
+    # kernel compilation on a new build, output) apart, so that 50 s of compilation does not swamp it
+    out = [plot(f"{title}: lowest consistency C per commit", "commit (oldest first)", "lowest C [1]", x,
+                c_series, markers=markers, xticks=labels, ylimits=limits)]
+    # a log axis without a single value draws nothing: such a plot is left out (no engine reported a time)
+    if any(v is not None for s in t_series for v in s["values"]):
+        out.append(plot(f"{title}: stepping time per commit", "commit (oldest first)", "stepping time [s] (log)",
+                        x, t_series, markers=markers, xticks=labels, ylog=True))
+    if any(v is not None for s in o_series for v in s["values"]):
+        out.append(plot(f"{title}: start-up per commit (wall time - stepping time)", "commit (oldest first)",
+                        "start-up [s] (log)", x, o_series, xticks=labels, ylog=True))
+    return out
+
+
+def positive(values: list) -> list:
+    """Values for a log axis: None where a value is missing or not above 0."""
+    return [v if v is not None and v > 0 else None for v in values]
 
 
 def sweep_plots(table, spec: dict, title: str) -> list[dict]:

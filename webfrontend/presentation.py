@@ -16,6 +16,44 @@ TIMING_CATEGORIES = (("pair", "#1f77b4"), ("neigh", "#ff7f0e"), ("comm", "#2ca02
 DIFF_LINE_LIMIT = 5000
 
 
+#: the order of the overview's rows: failing targets first
+VERDICT_ORDER = {"failed": 0, "not_run": 1, "passed": 2}
+
+
+def commit_link(build, commit_url: str | None) -> dict:
+    """A build's commit for a page: the short commit, its subject (first line of the message) and the
+    repository's web view of it when the target names one (``commit_url`` with ``{commit}``)."""
+    subject = (build.commit_message or "").strip().splitlines()[0] if (build.commit_message or "").strip() else ""
+    return {"short": build.commit[:10], "commit": build.commit, "subject": subject,
+            "url": commit_url.replace("{commit}", build.commit) if commit_url else None}
+
+
+#: a stepping-time change smaller than this share is not marked slower or faster (the smallest change
+#: harness.regressions.speed_changes reports)
+SPEED_MARK = 0.1
+
+
+def speed_change(ratio: float, noise: float = 0.0) -> dict:
+    """A stepping-time ratio (now / before) for a page: "+12 %" slower, "-8 %" faster, and which; marked only
+    beyond ``SPEED_MARK`` and beyond ``noise``, the measured spread of repeated runs (relative)."""
+    mark = max(SPEED_MARK, noise)
+    kind = "slower" if ratio - 1.0 >= mark else "faster" if 1.0 - ratio >= mark else "same"
+    return {"text": f"{(ratio - 1.0) * 100.0:+.0f} %", "kind": kind,
+            "noise": f"{noise * 100:.0f} %" if noise else ""}
+
+
+def choose_reference(runs: list, asked: int | None):
+    """The run of ``runs`` the others are compared against: the one asked for; else a run by the reference
+    target of another run's target (the comparison ``harness check`` makes); else the first (None: no runs)."""
+    if not runs:
+        return None
+    by_id = {r.pk: r for r in runs}
+    if asked in by_id:
+        return by_id[asked]
+    references = {r.target.reference_id for r in runs if r.target.reference_id}
+    return next((r for r in runs if r.target_id in references), runs[0])
+
+
 def breadcrumbs(path: str) -> list[tuple[str, str]]:
     """(name, folder path) of each level of ``a/b/c``: a, a/b, a/b/c."""
     parts = path.split("/") if path else []
@@ -130,18 +168,42 @@ def text_diffs(run_a, texts_a: dict, run_b, texts_b: dict) -> list[dict]:
     return out
 
 
-def run_plots(run, series) -> list[dict]:
+def run_plots(run, series, reference=None, reference_series=()) -> list[dict]:
     """Plots of a run page: every thermo/VTK quantity and every declared plot (thesis fig. 4.4), declared
-    plots first, with the run configuration's expectations on the quantities they bound."""
+    plots first, with the run configuration's expectations on the quantities they bound.
+
+    With a ``reference`` run (the one the check scores against, ``RunQuerySet.reference_for``) every plot
+    overlays it: a quantity the check scores is drawn over the reference with its 5 % and 10 % acceptance
+    bands (harness.consistency.compare_runs, thesis fig. 4.11), a declared plot with the reference's curves.
+    """
+    from harness.consistency import compare_runs
+
+    consistency = (run.config or {}).get("consistency")
+    by_key = {(s.kind, s.name): s for s in reference_series}
+    results = {}
+    if reference is not None:
+        as_dicts = [{"kind": x.kind, "name": x.name, "x_column": x.x_column, "columns": x.columns}
+                    for x in (*series, *reference_series)]
+        ours, theirs = as_dicts[:len(series)], as_dicts[len(series):]
+        results = {(r.series_kind, r.series_name, r.quantity): r for r in compare_runs(ours, theirs, consistency)}
+    label, ref_label = f"#{run.pk}", (short_label(reference) if reference is not None else "")
     out = []
     for s in sorted(series, key=lambda s: (s.kind != "plot", s.kind, s.name)):
+        ref = by_key.get((s.kind, s.name))
         if s.kind == "plot":
             if plots.quantities(s):
-                out.append(plots.series_plot([(f"#{run.pk}", s)], None))
+                curves = [(label, s)] + ([(f"reference: {ref_label}", ref)] if ref is not None else [])
+                out.append(plots.series_plot(curves, None))
             continue
-        for quantity in plots.quantities(s):
-            out.append(plots.series_plot([(f"#{run.pk}", s)], quantity,
-                                         plots.expectation_overlays(run.config, s.name, quantity)))
+        for quantity in plots.quantities(s, consistency):
+            overlays = plots.expectation_overlays(run.config, s.name, quantity)
+            scored = results.get((s.kind, s.name, quantity))
+            if ref is not None and scored is not None and scored.value is not None:
+                drawn = plots.consistency_plots(scored, s, ref, label, ref_label)[0]
+                plots.add_overlays(drawn["series"], drawn["bands"], len(drawn["x"]), overlays)
+                out.append(drawn)
+            else:
+                out.append(plots.series_plot([(label, s)], quantity, overlays))
     return out
 
 
@@ -266,30 +328,25 @@ def build_label(build) -> str:
     return f"{build.target.name}@{revision_label(build)}"
 
 
-def comparison_rows(comparison) -> list[dict]:
+def comparison_rows(comparison, limit: int | None = None) -> list[dict]:
     """The rows of ``harness compare`` (harness.compare.rows: same cells, same order), each with its pair so a
-    row can link to the two runs and their plots.
+    row can link to the two runs and their plots; the first ``limit`` of them (None: all).
 
     Each row's cells come from ``rows`` over that pair alone, so that the dashboard's cells are the CLI's; the
-    order is the one ``rows`` gives the whole comparison (outcome, then test case and run).
+    order is the one ``rows`` gives the whole comparison (harness.compare.row_order). Only the rows shown are
+    made: with 10,000 pairs, the others would cost most of the page's time.
     """
-    from harness.compare import Comparison, rows
+    from harness.compare import Comparison, row_order, rows
 
-    header, *table = rows(comparison)
-    rank = {}
-    for row in table:
-        rank.setdefault(row[2], len(rank))
     out = []
-    for pair in comparison.pairs:
+    for pair in sorted(comparison.pairs, key=row_order)[:limit]:
         single = Comparison(comparison.label_a, comparison.label_b, comparison.commit_a, comparison.commit_b,
                             [pair])
-        cells = rows(single)[1]
         link = None
         if pair.a is not None and pair.b is not None:
             link = reverse("compare") + "?" + urlencode({"run": [pair.a.pk, pair.b.pk]}, doseq=True)
-        out.append({"pair": pair, "cells": cells, "link": link,
+        out.append({"pair": pair, "cells": rows(single)[1], "link": link,
                     "failing": pair.outcome in ("new_failure", "inconsistent")})
-    out.sort(key=lambda r: (rank[r["pair"].outcome], r["pair"].testcase, r["pair"].run))
     return out
 
 

@@ -21,6 +21,7 @@ urlpatterns = [
     path("runs/<id:run_id>/override/", views.override, name="override"),
     path("compare/", views.compare, name="compare"),
     path("builds/compare/", views.compare_builds_page, name="compare-builds"),
+    path("commits/<segment:target>/<segment:commit>/", views.commit_page, name="commit"),
     path("builds/<id:build_id>/", views.build_detail, name="build"),
     path("compare/plots.json", views.compare_plots, name="compare-plots"),
     path("history/<id:target_id>/<relpath:testcase>/plots.json", views.history_plots, name="history-plots"),

@@ -20,8 +20,8 @@ from django.views.decorators.http import require_POST
 
 from harness.builds import current_build
 from harness.models import Build, ConsistencyResult, Machine, Override, Run, Series, Target, TestCase
-from harness.queries import CONSISTENCY_CATEGORIES, STATE_CATEGORIES
 from harness.coverage import covered, failed_current_builds
+from harness.queries import CONSISTENCY_CATEGORIES, STATE_CATEGORIES, stepping_changes
 from harness.verdicts import current_runs, stored_junit_xml, stored_verdict
 from webfrontend import params, plots, presentation
 from webfrontend.forms import OverrideForm
@@ -99,6 +99,9 @@ def bad_request(request, exception):
 
 
 def overview(request):
+    """One compact table per machine: a row per target (its current build), failing targets first, with the
+    verdict ``harness check`` gives, the commit, run counts, consistency, the stepping-time change against
+    the build before and when it last ran. With a search or filter, the matching runs are listed below."""
     mode, _ = _mode(request)
     selected = params.optional_id(request.GET, "machine")
     found = _filters(request)
@@ -109,26 +112,36 @@ def overview(request):
     machines = runs.overview()
     # the current builds and the failed builds not followed by a success, in one query
     shown = list(Build.objects.filter(Q(current=True) | Q(pk__in=Build.objects.unresolved_failures().values("pk")))
-                 .select_related("target", "machine").defer("log", "environment", "commit_message"))
+                 .select_related("target", "machine").defer("log", "environment"))
     builds = {(b.machine_id, b.target_id): b for b in shown if b.current}
     failed_builds = sorted((b for b in shown if b.status == Build.Status.FAILED),
                            key=lambda b: (b.machine.name, b.target.name, -(b.finished.timestamp() if b.finished else 0)))
     if selected is not None:
         failed_builds = [b for b in failed_builds if b.machine_id == selected]
+    commit_urls = {pk: (definition or {}).get("commit_url")
+                   for pk, definition in Target.objects.values_list("pk", "definition")}
+    speed = stepping_changes(builds.values())
     totals = {(row["machine_id"], row["target_id"]): row for row in everything.values(
         "machine_id", "machine__name", "target_id", "target__name").annotate(n=Count("id")).order_by()}
     for machine in machines:
         for target in machine["targets"]:
             key = (machine["machine_id"], target["target_id"])
-            target["build"] = builds.get(key)
+            target["build"] = build = builds.get(key)
             target["older"] = totals.pop(key)["n"] - target["tally"].total
+            if build is not None:
+                target["commit"] = presentation.commit_link(build, commit_urls.get(target["target_id"]))
+                target["speed"] = speed.get(build.pk)
+        machine["targets"].sort(key=lambda t: (presentation.VERDICT_ORDER[t["tally"].verdict], t["target"]))
     # targets with runs, none of them by their current build: named, so that no result silently vanishes
     uncounted = sorted(({"machine": r["machine__name"], "machine_id": r["machine_id"], "target": r["target__name"],
                          "target_id": r["target_id"], "runs": r["n"], "build": builds.get(key)}
                         for key, r in totals.items()), key=lambda u: (u["machine"], u["target"]))
+    # a search lists the runs it found, not only their counts
+    page = _with_failing_since(_page(request, _run_list(runs.listing()))) if found["filtered"] else None
     return render(request, "webfrontend/overview.html", {
-        "machines": machines, "mode": mode, "selected": selected, "uncounted": uncounted,
-        "failed_builds": failed_builds, "all_machines": Machine.objects.order_by("name"), **found})
+        "machines": machines, "mode": mode, "selected": selected, "uncounted": uncounted, "page": page,
+        "failed_builds": failed_builds, "all_machines": Machine.objects.order_by("name"),
+        "show_failing_since": True, **found})
 
 
 def build_detail(request, build_id):
@@ -186,8 +199,11 @@ def run_detail(request, run_id):
 def run_plots(request, run_id):
     """Every quantity of every series of a run and every declared plot (thesis fig. 4.4), with the run
     configuration's expectations drawn over the quantities they bound."""
-    run = get_object_or_404(Run.objects.only("id", "config"), pk=run_id)
-    return _plots_json(presentation.run_plots(run, Series.objects.filter(run=run)))
+    run = get_object_or_404(Run.objects.select_related("target__reference"), pk=run_id)
+    reference = Run.objects.reference_for(run)
+    return _plots_json(presentation.run_plots(
+        run, list(Series.objects.filter(run=run)), reference,
+        list(Series.objects.filter(run=reference)) if reference is not None else []))
 
 
 def run_file(request, run_id, relative):
@@ -214,6 +230,7 @@ def _comparison(runs) -> dict:
         texts = [RunFolder(r).texts() for r in runs]
         diffs = presentation.text_diffs(runs[0], texts[0], runs[1], texts[1])
     return {"runs": runs, "compared": [(r, presentation.run_label(r)) for r in runs],
+            "diff_count": sum(not d["equal"] for d in diffs),
             "timings": presentation.timing_bars(runs), "diffs": diffs, "compare_limit": COMPARE_LIMIT,
             "contents": len({r.testcase_hash for r in runs}),
             "plots_url": reverse("compare-plots") + "?" + urlencode({"run": ",".join(str(r.pk) for r in runs)})
@@ -221,8 +238,17 @@ def _comparison(runs) -> dict:
 
 
 def compare(request):
+    """Runs side by side against one of them, the reference: the one ``reference=ID`` names, else a run of
+    the reference target of another compared run's target, else the first. The reference comes first: the
+    bands are drawn around it and the diffs go from it to the other run."""
     runs = _compared(params.id_list(request.GET, "run", COMPARE_LIMIT, "runs"))
-    return render(request, "webfrontend/compare.html", _comparison(runs))
+    reference = presentation.choose_reference(runs, params.optional_id(request.GET, "reference"))
+    if reference is not None:
+        runs = [reference] + [r for r in runs if r is not reference]
+    return render(request, "webfrontend/compare.html", {
+        **_comparison(runs), "compare_reference": reference,
+        "reference_links": [(r, "?" + urlencode([("run", x.pk) for x in runs] + [("reference", r.pk)]))
+                            for r in runs if r is not reference]})
 
 
 def compare_plots(request):
@@ -304,7 +330,7 @@ def history_plots(request, target_id, testcase):
 def regressions(request):
     """The commits where a test case's stepping time or a quantity changed (harness.regressions.histories,
     as ``harness regressions`` prints them), on one machine, optionally of one target and ``-k`` pattern."""
-    from harness.regressions import histories
+    from harness.regressions import comparable, histories
 
     machine = _one_machine(request, "regressions")
     target_id = params.optional_id(request.GET, "target")
@@ -313,6 +339,7 @@ def regressions(request):
     found = histories(machine.name, target.name if target else None, pattern) if machine else []
     return render(request, "webfrontend/regressions.html", {
         "machine": machine, "target": target, "pattern": pattern or "", "histories": len(found),
+        "comparable": comparable(found),
         "changes": presentation.regression_rows(found, machine),
         "targets": Target.objects.order_by("name"), "machines": Machine.objects.order_by("name")})
 
@@ -365,13 +392,63 @@ def _build_choices():
 COMPARE_ROWS_SHOWN = 200
 
 
+def commit_page(request, target, commit):
+    """What a commit did to a target: its build on one machine (``?machine=NAME``, else the machine of its newest
+    build of that commit), the verdict of its runs, and against the build of the commit before (history order):
+    new failures, fixes, inconsistencies and the stepping-time change - what ``harness compare`` prints."""
+    from harness.compare import HEADER, compare_builds, summary
+    from harness.queries import fold_into_children, previous_builds
+
+    target_row = get_object_or_404(Target, name=target)
+    builds = Build.objects.filter(target=target_row, commit__startswith=commit.lower()).select_related(
+        "machine", "target").defer("log")
+    machine_name = params.text(request.GET, "machine")
+    if machine_name:
+        builds = builds.filter(machine__name=machine_name)
+    build = builds.order_by("-current", "-started", "-id").first()
+    if build is None:
+        raise Http404("no build of this commit")
+    tally = fold_into_children(Run.objects.filter(build=build, replaced=False).outcome_rows(), "")[1]
+    previous = previous_builds([build])[build.pk]
+    context = {"build": build, "tally": tally, "previous": previous, "target": target_row,
+               "commit": presentation.commit_link(build, (target_row.definition or {}).get("commit_url"))}
+    if previous is not None:
+        previous = Build.objects.select_related("target", "machine").defer("log").get(pk=previous.pk)
+        comparison = compare_builds(previous, build, build.machine.name, presentation.build_label(previous),
+                                    presentation.build_label(build))
+        context.update({"a": previous, "b": build, "comparison": comparison, "summary": summary(comparison),
+                        "counts": comparison.counts(), "header": HEADER, "previous": previous,
+                        "rows": presentation.comparison_rows(comparison, COMPARE_ROWS_SHOWN),
+                        "hidden_rows": len(comparison.pairs) - COMPARE_ROWS_SHOWN})
+    return render(request, "webfrontend/commit.html", context)
+
+
+def _reference_and_current() -> tuple[int, int] | None:
+    """(reference build, current build) ids: of the most recently built target that names a reference target,
+    its current build and its reference target's current build on the same machine (None: no such pair)."""
+    currents = list(Build.objects.filter(current=True, status=Build.Status.COMPLETE)
+                    .select_related("target").only("id", "machine_id", "target_id", "target__reference_id",
+                                                   "committed_at", "started")
+                    .order_by("-started", "-committed_at", "-id"))
+    by_key = {(b.machine_id, b.target_id): b.pk for b in currents}
+    for build in currents:
+        reference = by_key.get((build.machine_id, build.target.reference_id))
+        if build.target.reference_id and reference is not None:
+            return reference, build.pk
+    return None
+
+
 def compare_builds_page(request):
     """Two builds side by side: what ``harness compare A B`` prints (harness.compare.compare_builds), each row
     linking to the two runs' comparison with the consistency bands of B around A."""
-    from harness.compare import compare_builds, rows, summary
+    from harness.compare import HEADER, compare_builds, summary
 
     a_id, b_id = params.optional_id(request.GET, "a"), params.optional_id(request.GET, "b")
-    context = {"choices": _build_choices(), "a_id": a_id, "b_id": b_id}
+    defaulted = a_id is None and b_id is None
+    if defaulted:
+        # nothing asked: the current build of the newest target with a reference against its reference's
+        a_id, b_id = _reference_and_current() or (None, None)
+    context = {"choices": _build_choices(), "a_id": a_id, "b_id": b_id, "defaulted": defaulted and a_id is not None}
     if a_id is not None and b_id is not None:
         builds = Build.objects.select_related("target", "machine").defer("log")
         a, b = get_object_or_404(builds, pk=a_id), get_object_or_404(builds, pk=b_id)
@@ -380,10 +457,10 @@ def compare_builds_page(request):
                                       f"{a.machine.name}; runs are compared on one machine")
         comparison = compare_builds(a, b, a.machine.name, presentation.build_label(a), presentation.build_label(b))
         # worst first; a page of ten thousand consistent rows helps nobody and takes seconds to draw
-        table = presentation.comparison_rows(comparison)
         context.update({"a": a, "b": b, "comparison": comparison, "summary": summary(comparison),
-                        "counts": comparison.counts(), "header": rows(comparison)[0],
-                        "rows": table[:COMPARE_ROWS_SHOWN], "hidden_rows": len(table) - COMPARE_ROWS_SHOWN})
+                        "counts": comparison.counts(), "header": HEADER,
+                        "rows": presentation.comparison_rows(comparison, COMPARE_ROWS_SHOWN),
+                        "hidden_rows": len(comparison.pairs) - COMPARE_ROWS_SHOWN})
     elif a_id is not None or b_id is not None:
         raise params.BadParameter("a and b: name both builds to compare")
     return render(request, "webfrontend/compare_builds.html", context)
@@ -447,7 +524,7 @@ def matrix(request):
     every target's run against every other target's run of the same test case content, per quantity; each
     cell links to the comparison of the two runs with the code's run in the bands around the reference's."""
     machine, names, pattern, result = _matrix(request)
-    blocks, lowest, ids = [], [], {}
+    blocks, lowest = [], []
     if result is not None:
         from harness.matrix import _c
 

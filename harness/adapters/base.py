@@ -58,6 +58,9 @@ class EngineAdapter:
     name = ""
     #: required thermo columns after the adapter's mapping (thesis 4.4.1)
     required_thermo = ("step", "atoms", "ke", "rke")
+    #: what the harness prints before the first run of a new build, when the engine spends a while on it
+    #: (the bundled engine compiles its kernels); blank: nothing to say
+    first_run_note = ""
     #: harness name -> the code's own thermo column name, used when neither target nor run.config maps it
     default_thermo_columns: dict[str, str] = {}
     #: how a scaling study (``harness.scaling``) gives this code more cores: "mpi" ranks or "threads"

@@ -53,6 +53,8 @@ def apply_mapping(frame: pd.DataFrame, mapping: dict[str, str] | None, required,
 @register
 class DemAdapter(EngineAdapter):
     name = "dem"
+    first_run_note = ("the engine compiles its kernels first (up to a minute for each new combination of "
+                      "contact models); later runs reuse them")
     #: more cores are more Numba threads (NUMBA_NUM_THREADS); its profile is its own phase timers (engine/runner.py)
     parallelism = "threads"
     profiler = "phases"

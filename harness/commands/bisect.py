@@ -28,6 +28,7 @@ def run(args) -> int:
     from harness import gitrepo
     from harness.bisect import bisect
     from harness.compare import rows
+    from harness.links import commit_page
     from harness.runner import format_table
     from harness.targets import select_targets
 
@@ -45,6 +46,9 @@ def run(args) -> int:
           f"        {commit.summary}\n"
           f"({len(result.steps)} commits tested" + (f", {len(result.skipped)} skipped" if result.skipped else "")
           + ")")
+    page = commit_page(target.name, commit.hexsha, args.machine)
+    if page:
+        print(f"dashboard: {page}")
     comparison = result.comparison
     if comparison is not None:
         broken = [p for p in comparison.pairs if p.outcome in ("new_failure", "inconsistent")]

@@ -27,6 +27,7 @@ def run(args) -> int:
     setup_store()
     from harness.check import check_targets, write_junit
     from harness.commands.run import with_references
+    from harness.links import commit_page
     from harness.revisions import expand
     from harness.runner import RunOptions, run_targets
 
@@ -43,7 +44,12 @@ def run(args) -> int:
     counts = {s: sum(v.status == s for v in report.verdicts) for s in ("passed", "failed", "skipped")}
     print(f"ci: {len(ran.records)} runs executed ({len(ran.failed)} failed), {ran.skipped} already done; "
           f"{len(report.verdicts)} checked: {counts['passed']} passed, {counts['failed']} failed, "
-          f"{counts['skipped']} skipped; {len(report.problems)} problems; JUnit XML: {args.junit}")
+          f"{counts['skipped']} not run; {len(report.problems)} problems; JUnit XML: {args.junit}")
+    builds = sorted({(v.run.target.name, v.run.build.commit) for v in report.verdicts})
+    for target, commit in builds:
+        page = commit_page(target, commit, args.machine)
+        if page:
+            print(f"dashboard: {target} at {commit[:10]}: {page}")
     if not report.verdicts and not report.problems:
         return 5
     return 1 if counts["failed"] or report.problems or ran.failed else 0

@@ -21,7 +21,7 @@ def run(args) -> int:
     from harness.store import setup_store
 
     setup_store()
-    from harness.regressions import build_times, histories
+    from harness.regressions import build_times, comparable, histories
     from harness.runner import format_table
 
     found = histories(args.machine, args.target, args.pattern, args.sigma, args.window, args.min_change)
@@ -38,14 +38,15 @@ def run(args) -> int:
     else:
         rows = [("target", "test case", "run", "commit", "after", "change", "detail")]
         for h, c in changes:
-            rows.append((h.target, h.testcase, h.run, c.commit[:10], c.previous_commit[:10], c.kind, c.detail[:100]))
+            rows.append((h.target, h.testcase, h.run, c.commit[:10], c.previous_commit[:10], c.kind, c.detail))
         print(format_table(rows) if changes else "no changes found")
-        print(f"{len(found)} histories, {sum(len(h.points) for h in found)} runs, {len(changes)} changes")
+        print(f"{len(found)} histories, {comparable(found)} of them with runs of two or more builds (only those "
+              f"can change), {sum(len(h.points) for h in found)} runs, {len(changes)} changes")
         if args.builds:
             rows = [("target", "commit", "committed", "build", "build time", "ccache hits", "error")]
             for b in builds:
                 rows.append((b.target, b.commit[:10], b.committed_at.date().isoformat() if b.committed_at else "-",
                              b.status, f"{b.seconds:.1f} s" if b.seconds is not None else "-",
-                             "-" if b.ccache_hits is None else str(b.ccache_hits), b.error[:80]))
+                             "-" if b.ccache_hits is None else str(b.ccache_hits), b.error))
             print(format_table(rows))
     return 5 if not found and not builds else 0

@@ -1,5 +1,6 @@
 """``harness run [TARGET ...] [-k PATTERN] [-j N] [--rerun-failed] [--working-tree] [--scheduler ADDRESS]``."""
 import sys
+from pathlib import Path
 
 NAME = "run"
 HELP = "build targets if needed and run their test cases"
@@ -17,6 +18,11 @@ def add_selection(parser, what: str = "runs"):
 
 def configure(parser):
     add_selection(parser)
+    parser.add_argument("--testcases", metavar="FOLDER",
+                        help="run the test cases of this folder (anywhere on disk) instead of the targets' own")
+    parser.add_argument("--repeat", type=int, default=1, metavar="N",
+                        help="run each engine N times and keep the N stepping times (their spread decides which "
+                             "speed changes are marked); with --all also for runs already done")
     parser.add_argument("--steps", type=int, metavar="N",
                         help="with TARGET@A..B: N commits spread evenly over the range (default: every commit)")
     parser.add_argument("--rerun-failed", action="store_true", help="run failed runs again")
@@ -43,13 +49,22 @@ def run(args) -> int:
     targets, problems = expand(args.targets, args.targets_dir, args.steps)
     if args.targets and not args.no_reference:
         targets = with_references(targets)
-    if args.jobs < 1:
+    if args.testcases:
+        from harness.targets import with_testcases
+
+        if not Path(args.testcases).expanduser().is_dir():
+            from harness.adapters.base import UserError
+
+            raise UserError(f"--testcases: {args.testcases}: no such folder")
+        targets = [with_testcases(t, args.testcases) for t in targets]
+    if args.jobs < 1 or args.repeat < 1:
         from harness.adapters.base import UserError
 
-        raise UserError("-j must be at least 1")
+        raise UserError("-j and --repeat must be at least 1")
     options = RunOptions(machine=args.machine, pattern=args.pattern, jobs=args.jobs,
                          rerun_failed=args.rerun_failed, rerun_all=args.rerun_all, working_tree=args.working_tree,
-                         scheduler=args.scheduler, force_build=args.force_build, profile=args.profile)
+                         scheduler=args.scheduler, force_build=args.force_build, repeat=args.repeat,
+                         profile=args.profile)
     report = run_targets(targets, options)
     report.problems[:0] = problems
     for problem in problems:

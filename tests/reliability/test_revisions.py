@@ -132,6 +132,18 @@ def test_speed_detector_marks_a_step_and_ignores_noise():
     assert [i for i, _ in marked] == [7] and marked[0][1] == pytest.approx(1.5 / (sum(noisy[2:7]) / 5))
 
 
+def test_a_speed_change_inside_the_spread_of_repeated_runs_is_not_marked():
+    from harness.regressions import relative_spread, speed_changes
+
+    times = [1.0, 1.0, 1.0, 1.0, 1.0, 1.3]
+    assert [i for i, _ in speed_changes(times)] == [5]                         # no repeats: a 30 % step
+    assert speed_changes(times, spreads=[0.0] * 5 + [0.4]) == []               # its repeats spread 40 %
+    assert speed_changes(times, spreads=[0.4] + [0.0] * 5) == []               # a build before spread 40 %
+    assert [i for i, _ in speed_changes(times, spreads=[0.1] * 6)] == [5]      # 30 % beyond a 10 % spread
+    assert relative_spread({"stepping_repeats": [1.0, 1.2, 1.1]}) == pytest.approx(0.2 / 1.1)
+    assert relative_spread({"total": 1.0}) == 0.0
+
+
 def test_regressions_marks_the_commits_where_physics_and_speed_changed(tmp_path, monkeypatch):
     repo = git_repo(tmp_path / "repo")
     # a history is ordered by commit date: one commit a day, as in a real history (GitPython reads these)

@@ -3,7 +3,9 @@
 The time of a page is from the start of navigation until every plot box has drawn (``data-drawn`` set by
 plots.js) - what a reviewer waits for. Each page is loaded three times; the median is written to
 test-artifacts/page_times.json with the number of runs. The goal is under 1 s a page; the test fails above
-``LIMIT`` s, a margin for a busy CI machine (the figures themselves are in the artifact and the note).
+``LIMIT`` s, a margin for a busy CI machine (the figures themselves are in the artifact). On a 2-core machine
+under a load of about 5 the slowest pages (compare builds, the commit page, regressions, a search listing runs)
+took 0.5-0.75 s; ``python benchmarks/dashboard_pages.py`` gives their server time alone.
 """
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ from test_browser import ARTIFACTS, BrowserCase
 
 RUNS = 10_000
 GOAL = 1.0
-LIMIT = 3.0
+LIMIT = 1.5
 
 
 @pytest.mark.slow
@@ -41,6 +43,8 @@ class BrowserScaleTest(BrowserCase):
             "consistency with plots": f"/runs/{run}/consistency/",
             "compare two runs": f"/compare/?run={other}&run={run}",
             "compare builds": f"/builds/compare/?a={s['older'].build_id}&b={s['new_build'].pk}",
+            "commit page": f"/commits/dem-master/{s['new_build'].commit}/?machine=ws1",
+            "search listing runs": "/?q=bulk",
             "history with plots": f"/history/{target}/{s['inconsistent'].testcase.path}/",
             "regressions": f"/regressions/?machine={s['ws1'].pk}",
             "sweeps": "/sweeps/",

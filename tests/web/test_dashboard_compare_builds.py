@@ -41,7 +41,17 @@ class CompareBuildsTest(TestCase):
         for build in Build.objects.all():
             self.assertIn(f'<option value="{build.pk}"', html)
         self.assertIn('<optgroup label="dem-master on ws1">', html)
-        self.assertNotIn('<table class="build-comparison">', html)
+
+    def test_without_a_choice_the_reference_is_compared_with_the_current_build(self):
+        """Never A = B: dem-v1's current build (the reference) against dem-master's current build."""
+        html = self.client.get("/builds/compare/").content.decode()
+        reference = Build.objects.get(commit="a" * 40)
+        self.assertIn("Chosen for you", html)
+        a = html.split('id="build-a"', 1)[1].split("</select>", 1)[0]
+        b = html.split('id="build-b"', 1)[1].split("</select>", 1)[0]
+        self.assertIn(f'<option value="{reference.pk}" selected>', a)
+        self.assertIn(f'<option value="{self.new.pk}" selected>', b)
+        self.assertEqual(cells(html), cells(self.page(reference, self.new)))
 
     def test_rows_are_what_harness_compare_prints(self):
         html = self.page(self.old, self.new)
@@ -78,3 +88,46 @@ class CompareBuildsTest(TestCase):
         self.assertEqual(self.client.get(f"/builds/compare/?a={self.old.pk}").status_code, 400)
         self.assertEqual(self.client.get("/builds/compare/?a=1&b=x").status_code, 400)
         self.assertEqual(self.client.get(f"/builds/compare/?a={self.old.pk}&b=999999").status_code, 404)
+
+
+class CompareBuildsQueriesTest(TestCase):
+    """A comparison reads plain rows and the series of its scored pairs together: the number of queries does
+    not grow with the pairs, and the scores are those of the two runs' model objects."""
+
+    def test_queries_do_not_grow_with_scored_pairs(self):
+        from django.db import connection
+        from django.test.utils import CaptureQueriesContext
+
+        from dashboard_data import add_series
+        from harness.compare import compare_pair
+        from harness.models import Machine, Run, Target, TestCase as Case
+
+        machine, target = Machine.objects.create(name="ws"), Target.objects.create(name="dem")
+        builds = [Build.objects.create(target=target, machine=machine, revision="HEAD", commit=c * 40,
+                                       definition_hash="d", status="complete", committed_at=T0) for c in "ab"]
+
+        def add_pairs(start: int, count: int):
+            for i in range(start, start + count):
+                case = Case.objects.create(path=f"cases/case{i}")
+                for build, shift in zip(builds, (0.0, 1e-4 * (i % 2))):  # every other pair drifts
+                    add_series(Run.objects.create(machine=machine, target=target, build=build, testcase=case,
+                                                  name="serial", state="post_processed", finished=T0,
+                                                  stepping_time=1.0 + shift), kinetic_energy(shift))
+
+        def queries() -> int:
+            with CaptureQueriesContext(connection) as ctx:
+                comparison = compare_builds(builds[0], builds[1], "ws", "A", "B")
+            return len(ctx.captured_queries), comparison
+
+        add_pairs(0, 2)
+        few, _ = queries()
+        add_pairs(2, 6)
+        many, comparison = queries()
+        self.assertEqual(few, many)
+        self.assertEqual(comparison.counts()["inconsistent"], 4)
+        self.assertEqual(comparison.counts()["consistent"], 4)
+        # the same scores as from the model objects, pair by pair
+        for pair in comparison.pairs:
+            a, b = Run.objects.get(pk=pair.a.pk), Run.objects.get(pk=pair.b.pk)
+            self.assertEqual([q.__dict__ for q in compare_pair(a, b).quantities],
+                             [q.__dict__ for q in pair.quantities])

@@ -6,6 +6,7 @@ import json
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from dashboard_data import STEPS, kinetic_energy, thesis_consistency
 from webfrontend import plots
@@ -118,14 +119,17 @@ def test_bands_are_the_thesis_levels_and_agree_with_the_check():
 
 def test_history_bounds_the_consistency_axis_and_keeps_true_values_on_hover():
     lines = {"serial": {"c": [0.99, -8186.0, 0.97], "stepping": [1.0, 1.0, 2.0], "wall": [3.0, 3.1, 4.0]}}
-    c_plot, time_plot = plots.history_plots(["aaaaaaa", "bbbbbbb", "ccccccc"], lines,
+    c_plot, time_plot, startup_plot = plots.history_plots(["aaaaaaa", "bbbbbbb", "ccccccc"], lines,
                                             [{"index": 2, "label": "ccccccc serial: slower"}], "case on dem")
     assert c_plot["xticks"] == ["aaaaaaa", "bbbbbbb", "ccccccc"] and c_plot["x"] == [0, 1, 2]
     line = c_plot["series"][0]
     assert line["values"] == [0.99, plots.C_AXIS_FLOOR, 0.97] and line["hover"] == [0.99, -8186.0, 0.97]
     assert c_plot["ylimits"][0] > -1 and c_plot["ylimits"][1] > 1
-    assert labels(time_plot) == ["serial stepping time", "serial wall time"]
-    assert time_plot["markers"][0]["x"] == 2 and time_plot["ylabel"] == "time [s]"
+    # stepping time alone on a log axis; start-up (wall - stepping: 2 s, 2.1 s, 2 s) on its own
+    assert labels(time_plot) == ["serial stepping time"] and time_plot["ylog"]
+    assert time_plot["markers"][0]["x"] == 2 and time_plot["ylabel"] == "stepping time [s] (log)"
+    assert labels(startup_plot) == ["serial start-up"] and startup_plot["ylog"]
+    assert startup_plot["series"][0]["values"] == pytest.approx([2.0, 2.1, 2.0])
     unclipped = plots.history_plots(["a"], {"s": {"c": [0.9], "stepping": [1.0], "wall": [1.0]}}, [], "t")[0]
     assert unclipped["ylimits"] is None
 

@@ -46,30 +46,138 @@ class DashboardTest(TestCase):
         return base + ("?" + "&".join(f"{k}={v}" for k, v in params.items()) if params else "")
 
 
+def target_rows(html: str) -> dict[str, str]:
+    """The overview's rows by target name: {target: the row's HTML}, in page order."""
+    rows = re.findall(r'<tr class="target verdict-[a-z_]+">(.*?)</tr>', html, re.S)
+    return {re.search(r'/t/\d+/\?mode=[a-z]+[^"]*">([^<]+)</a>', row).group(1): row for row in rows}
+
+
+def cells(row: str) -> list[str]:
+    """The text of a table row's cells, tags left out."""
+    return [" ".join(re.sub(r"<[^>]+>", " ", c).split()) for c in re.findall(r"<td[^>]*>(.*?)</td>", row, re.S)]
+
+
 class OverviewTest(DashboardTest):
-    def test_machine_targets_folders_and_counts(self):
+    def test_a_row_per_target_failing_first_with_the_check_verdict(self):
         html = self.get("/").content.decode()
         self.assertIn("machine ws1", html)
-        self.assertIn("dem-master", html)
-        self.assertIn("dem-v1", html)
-        master = html[html.index("dem-master"):]
-        # the runs of master's current build (cccc...) are counted; the older build's run is not
-        self.assertIn("current build HEAD <code>cccccccccc</code>", master)
-        self.assertIn("1 run of older builds not counted", master)
-        # contact_models on master's current build: 1 successful (consistency checked), 1 failed, 1 not executed
-        row = master[master.index(">contact_models/<"):master.index("</tr>", master.index(">contact_models/<"))]
-        self.assertIn("1 successful", row)
-        self.assertIn("1 failed", row)
-        self.assertIn("1 not executed", row)
-        self.assertNotIn("outdated", row)
-        self.assertIn("fill red", row)  # a failure is red, whatever the share of successful runs
-        packing = master[master.index(">packing/<"):]
-        self.assertIn("fill green", packing[:packing.index("</tr>")])
-        # "0 failed" is no alarm: grey, not red
-        self.assertIn('<span class="count failed zero">0 failed</span>', packing[:packing.index("</tr>")])
-        # the target's verdict and revision head it
-        self.assertIn('<span class="target-verdict failing">failing</span> <a href=', html)
-        self.assertIn('<code class="revision">cccccccccc</code>', html)
+        rows = target_rows(html)
+        self.assertEqual(list(rows), ["dem-master", "dem-v1"])  # failing first
+        master = cells(rows["dem-master"])
+        # verdict, target, commit, passed, failed, not run (+ runs of older builds), consistency, lowest C
+        # the run never executed is a failure of the gate, as in harness check (harness.coverage)
+        self.assertEqual(master[:6], ["failed", "dem-master vs dem-v1", "cccccccccc HEAD", "1", "3", "0 +1 older"])
+        self.assertEqual(master[6], "1 consistent 1 inconsistent 2 not checked")
+        self.assertEqual(master[7], f"{self.s['c']:.4f}")
+        self.assertEqual(master[9], "2026-01-05 12:00")
+        self.assertIn('title="faster neighbor list"', rows["dem-master"])  # the commit's subject on hover
+        self.assertEqual(cells(rows["dem-v1"])[:6], ["passed", "dem-v1", "aaaaaaaaaa v1", "1", "0", "0"])
+        # both modes show the same verdicts
+        self.assertEqual([cells(r)[0] for r in target_rows(self.get("/?mode=consistency").content.decode()).values()],
+                         ["failed", "passed"])
+
+    def test_the_overview_verdict_is_the_one_harness_check_gives(self):
+        """Per target, the passed / failed / not run counts equal the stored verdicts of harness.verdicts (the
+        verdicts `harness check` writes), also after a reviewer overrules a failure and an inconsistency."""
+        from harness.models import Override
+        from harness.verdicts import current_runs, stored_verdict
+
+        def from_check():
+            out = {}
+            for run in current_runs():
+                status = {"skipped": "not run"}.get(stored_verdict(run).status, stored_verdict(run).status)
+                counts = out.setdefault(run.target.name, {"passed": 0, "failed": 0, "not run": 0})
+                counts[status] += 1
+            return out
+
+        def from_page():
+            out = {}
+            for name, row in target_rows(self.get("/").content.decode()).items():
+                c = cells(row)
+                out[name] = {"passed": int(c[3]), "failed": int(c[4]), "not run": int(c[5].split()[0])}
+            return out
+
+        self.assertEqual(from_page(), from_check())
+        Override.objects.create(run=self.s["failed"], user=self.s["user"], quantity="", reason="known crash")
+        Override.objects.create(run=self.s["inconsistent"], user=self.s["user"], quantity="ke", reason="new damping")
+        self.assertEqual(from_page(), from_check())
+        # overruled: the failure and the inconsistency pass; the run never executed still fails
+        self.assertEqual(from_page()["dem-master"], {"passed": 3, "failed": 1, "not run": 0})
+        self.assertEqual(cells(target_rows(self.get("/").content.decode())["dem-master"])[0], "failed")
+        Run.objects.filter(pk=self.s["not_run"].pk).update(state="outdated")
+        self.assertEqual(from_page(), from_check())
+        self.assertEqual(from_page()["dem-master"], {"passed": 3, "failed": 0, "not run": 1})
+        self.assertEqual(cells(target_rows(self.get("/").content.decode())["dem-master"])[0], "passed")
+
+    def test_commit_links_to_the_repository_web_view(self):
+        from harness.models import Target
+
+        master = self.s["master"]
+        Target.objects.filter(pk=master.pk).update(
+            definition={**master.definition, "commit_url": "https://example.org/dem/commit/{commit}"})
+        row = target_rows(self.get("/").content.decode())["dem-master"]
+        self.assertIn(f'<a class="web" href="https://example.org/dem/commit/{"c" * 40}"', row)
+        self.assertIn(f'<a href="/commits/dem-master/{"c" * 40}/?machine=ws1" title="faster neighbor list">', row)
+
+    def test_stepping_time_change_against_the_build_before(self):
+        """The current master build against the older one, paired by test case and run name: the geometric
+        mean of the ratios (one pair here: 0.6 s / 0.8 s, 25 % faster)."""
+        Run.objects.filter(pk=self.s["inconsistent"].pk).update(stepping_time=0.6)
+        Run.objects.filter(pk=self.s["older"].pk).update(stepping_time=0.8)
+        row = target_rows(self.get("/").content.decode())["dem-master"]
+        self.assertEqual(cells(row)[8], "-25 %")
+        self.assertIn('class="change faster"', row)
+        self.assertIn("over 1 run shared with the build before (bbbbbbbbbb)", row)
+        # repeated runs (harness run --repeat) that spread by 40 %: a 25 % change is shown with it, not marked
+        Run.objects.filter(pk=self.s["inconsistent"].pk).update(
+            timing={**self.s["inconsistent"].timing, "stepping_repeats": [0.5, 0.6, 0.74]})
+        row = target_rows(self.get("/").content.decode())["dem-master"]
+        self.assertEqual(cells(row)[8], "-25 % &plusmn;40 %")
+        self.assertIn('class="change same"', row)
+        Run.objects.filter(pk=self.s["inconsistent"].pk).update(timing=self.s["inconsistent"].timing)
+        # a change under 10 % is shown, not marked
+        Run.objects.filter(pk=self.s["older"].pk).update(stepping_time=0.63)
+        row = target_rows(self.get("/").content.decode())["dem-master"]
+        self.assertEqual(cells(row)[8], "-5 %")
+        self.assertIn('class="change same"', row)
+
+    def test_the_commit_page_says_what_the_commit_changed(self):
+        """dem-master at cccc against the commit before (bbbb): the drifted impact is inconsistent, two hooke
+        runs and the settle run exist only now; the verdict is that of harness check."""
+        s = self.s
+        Run.objects.exclude(state="not_executed").update(finished=s["older"].started)
+        html = self.get(f"/commits/dem-master/{'c' * 12}/?machine=ws1").content.decode()
+        self.assertIn("dem-master at <code>cccccccccc</code>", html)
+        self.assertIn("faster neighbor list", html)
+        self.assertIn('<span class="target-verdict failed">failed</span>', html)
+        self.assertIn("1 passed", html)
+        self.assertIn(f'href="/commits/dem-master/{"b" * 40}/?machine=ws1"', html)  # the commit before
+        self.assertIn('<li class="outcome inconsistent">1 inconsistent</li>', html)
+        self.assertIn("contact_models/hertz/impact", html.split('<table class="build-comparison">')[1])
+        # the first build has no commit before
+        html = self.get(f"/commits/dem-master/{'b' * 40}/").content.decode()
+        self.assertIn("none: this is the first build of dem-master on ws1", html)
+        self.assertEqual(self.client.get("/commits/dem-master/ffff/").status_code, 404)
+        # run lists link each run's build to its commit page
+        self.assertIn(f'href="/commits/dem-master/{"c" * 40}/?machine=ws1"',
+                      self.get(f"/testcases/{s['hertz'].path}/").content.decode())
+
+    def test_words_carry_the_glossary_sentence_as_tooltip(self):
+        from harness.glossary import ALL
+        from django.utils.html import escape
+
+        html = self.get(f"/testcases/{self.s['hertz'].path}/").content.decode()
+        self.assertIn(f'title="{escape(ALL["version-consistency-checked"])}">version-consistency-checked<', html)
+        self.assertIn(f'title="{escape(ALL["inconsistent"])}">inconsistent<', html)
+        overview = self.get("/").content.decode()
+        self.assertIn(f'<th class="num" title="{escape(ALL["C"])}">lowest C</th>', overview)
+
+    def test_a_search_lists_the_runs_it_found(self):
+        html = self.get("/?q=hooke").content.decode()
+        self.assertIn("Runs found", html)
+        listed = {int(i) for i in re.findall(r'name="run" value="(\d+)"', html)}
+        self.assertEqual(listed, {self.s["failed"].pk, self.s["not_run"].pk})
+        self.assertNotIn("Runs found", self.get("/").content.decode())
 
     def test_older_build_runs_are_named_when_the_current_build_has_none(self):
         from harness.models import Build
@@ -97,23 +205,14 @@ class OverviewTest(DashboardTest):
         self.assertEqual([verdict(tally(1, 3)), verdict(tally(3, 0)), verdict(tally(2, 0, 1)), verdict(tally(0, 0))],
                          ["failing", "passing", "incomplete", "empty"])
 
-    def test_consistency_mode_counts_and_lowest_c(self):
-        html = self.get("/?mode=consistency").content.decode()
-        master = html[html.index("dem-master"):]
-        row = master[master.index(">contact_models/<"):master.index("</tr>", master.index(">contact_models/<"))]
-        # the drifted run inconsistent, the rest not checked; the older build's perfect run is not counted
-        self.assertIn("0 consistent", row)
-        self.assertIn("1 inconsistent", row)
-        self.assertIn("2 not checked", row)
-        self.assertIn(f"{self.s['c']:.4f}", row)
-
     def test_query_count_does_not_grow_with_runs(self):
         before = self.queries("/")
         add_bulk_runs(200, self.s["ws1"], self.s["master"], self.s["new_build"])
         self.assertEqual(self.queries("/"), before)
-        self.assertLessEqual(before, 4)
+        self.assertLessEqual(before, 7)
         html = self.get("/").content.decode()
-        self.assertIn("150 successful", html)  # 3 of every 4 bulk runs succeed
+        # 3 of every 4 bulk runs succeed: 150 passed besides the good settle run
+        self.assertEqual(cells(target_rows(html)["dem-master"])[3], "151")
 
     def test_machine_selection(self):
         from harness.models import Machine
@@ -215,8 +314,32 @@ class RunDetailTest(DashboardTest):
         self.assertIn("post/dump_100.vtp", html)
         self.assertIn(f'data-plots="/runs/{run.pk}/plots.json"', html)
         specs = json.loads(self.get(f"/runs/{run.pk}/plots.json").content)["plots"]
-        # declared torque plot first, then atoms, ke, rke (step is the abscissa)
-        self.assertEqual([s["title"] for s in specs], ["Torque", "thermo: atoms", "thermo: ke", "thermo: rke"])
+        # declared torque plot first, then atoms, ke, rke (step is the abscissa), each over the reference run
+        # with its C (the same as the stored, independently computed one) and its 5 % and 10 % bands
+        self.assertEqual([s["title"] for s in specs], [
+            "Torque", "thermo: atoms  (C = 1.0000, perfect)", f"thermo: ke  (C = {self.s['c']:.4f}, inconsistent)",
+            "thermo: rke  (C = 1.0000, perfect)"])
+        ke = specs[2]
+        labels = [s["label"] for s in ke["series"]]
+        self.assertIn(f"reference: #{self.s['reference'].pk} dem-v1@v1 (aaaaaaa)", labels)
+        self.assertEqual([b["label"] for b in ke["bands"]], ["10 % band (good)", "5 % band (perfect)"])
+        self.assertEqual(ke["markers"][0]["x"], self.s["first_bad"])
+        self.assertEqual([s["label"] for s in specs[0]["series"]][-1].split(":")[0], "reference")
+
+    def test_axis_columns_are_not_plotted_unless_the_run_configuration_asks(self):
+        from harness.models import Series
+
+        run = self.s["inconsistent"]
+        thermo = Series.objects.get(run=run, kind="thermo")
+        thermo.columns = {**thermo.columns, "time": [s * 2e-5 for s in thermo.columns["step"]]}
+        thermo.save()
+        titles = [s["title"].split("  (")[0] for s in
+                  json.loads(self.get(f"/runs/{run.pk}/plots.json").content)["plots"]]
+        self.assertNotIn("thermo: time", titles)
+        Run.objects.filter(pk=run.pk).update(config={**run.config, "consistency": {"time": {}}})
+        titles = [s["title"].split("  (")[0] for s in
+                  json.loads(self.get(f"/runs/{run.pk}/plots.json").content)["plots"]]
+        self.assertIn("thermo: time", titles)
 
     def test_log_markup_is_escaped(self):
         html = self.get(f"/runs/{self.s['inconsistent'].pk}/").content.decode()
@@ -297,6 +420,21 @@ class CompareTest(DashboardTest):
         self.assertTrue(titles[ke + 2].startswith("thermo: ke, deviation from the reference"))
         self.assertEqual(specs[ke + 1]["markers"][0]["x"], self.s["first_bad"])
 
+    def test_the_reference_is_the_reference_targets_run_unless_another_is_chosen(self):
+        """Ticked in either order, the reference target's run is the reference: the bands go around it and
+        the diff goes from it; ``reference=ID`` chooses another, and the page links to that choice."""
+        a, b = self.s["reference"], self.s["inconsistent"]
+        html = self.get(f"/compare/?run={b.pk}&run={a.pk}").content.decode()
+        self.assertIn(f"Reference: <strong>#{a.pk}", html)
+        self.assertIn('<div class="del">-{&quot;run&quot;: 2000, &quot;dt&quot;: 1e-5}</div>', html)
+        self.assertLess(html.index('id="compare-plots"'), html.index('<details class="diff">'))  # diffs below
+        url = re.search(r'data-plots="(/compare/plots\.json[^"]*)"', html).group(1).replace("&amp;", "&")
+        self.assertIn(f"run={a.pk}%2C{b.pk}", url)
+        self.assertIn(f'href="?run={a.pk}&amp;run={b.pk}&amp;reference={b.pk}"', html)
+        html = self.get(f"/compare/?run={a.pk}&run={b.pk}&reference={b.pk}").content.decode()
+        self.assertIn(f"Reference: <strong>#{b.pk}", html)
+        self.assertIn('<div class="add">+{&quot;run&quot;: 2000, &quot;dt&quot;: 1e-5}</div>', html)
+
     def test_three_runs_without_diffs(self):
         ids = [self.s[k].pk for k in ("reference", "inconsistent", "older")]
         html = self.get("/compare/?run=" + ",".join(map(str, ids))).content.decode()
@@ -331,7 +469,7 @@ class ConsistencyTest(DashboardTest):
         self.assertIn(f"{self.s['c']:.4f}", html)
         self.assertIn("inconsistent", html)
         self.assertIn(f"<td class=\"num\">{self.s['first_bad']}</td>", html)
-        self.assertIn("Differences (unified diff", html)
+        self.assertIn("Differences of the files", html)
         self.assertIn(f'data-plots="/runs/{run.pk}/consistency/plots.json"', html)
         specs = json.loads(self.get(f"/runs/{run.pk}/consistency/plots.json").content)["plots"]
         # ke (lowest C first) and atoms: each the bands and the deviation
@@ -394,10 +532,10 @@ class OverruleTest(DashboardTest):
         self.assertIn("new damping &lt;b&gt;intended&lt;/b&gt;", html)
         self.assertIn(override.created.strftime("%Y-%m-%d %H:%M"), html)
         html = self.get("/?mode=consistency").content.decode()
-        master = html[html.index("dem-master"):]
-        row = master[master.index(">contact_models/<"):]
-        self.assertIn("1 consistent", row[:row.index("</tr>")])
-        self.assertIn("0 inconsistent", row[:row.index("</tr>")])
+        # the overruled run counts as consistent and as passed (the verdict of harness check)
+        master = cells(target_rows(html)["dem-master"])
+        self.assertEqual(master[6], "2 consistent 0 inconsistent 2 not checked")
+        self.assertEqual(master[3:5], ["2", "2"])  # the other failure: the run never executed
 
     def test_per_quantity_overrule_accepts_when_all_bad_quantities_are_covered(self):
         self.client.force_login(self.s["user"])
@@ -449,11 +587,17 @@ class HistoryJunitStaticTest(DashboardTest):
         self.assertLess(html.index("<code>bbbbbbbbbb</code>"), html.index("<code>cccccccccc</code>"))
         self.assertIn("0.9900", html)
         url = re.search(r'data-plots="(/history/[^"]+)"', html).group(1).replace("&amp;", "&")
-        c_plot, time_plot = json.loads(self.get(url).content)["plots"]
+        # without stepping times only C is plotted; with them, stepping time and start-up (wall - stepping)
+        self.assertEqual(len(json.loads(self.get(url).content)["plots"]), 1)
+        Run.objects.filter(pk=s["older"].pk).update(stepping_time=0.8)
+        Run.objects.filter(pk=s["inconsistent"].pk).update(stepping_time=0.6)
+        c_plot, time_plot, startup_plot = json.loads(self.get(url).content)["plots"]
+        self.assertEqual(time_plot["series"][0]["values"], [0.8, 0.6])
+        self.assertEqual([round(v, 12) for v in startup_plot["series"][0]["values"]], [1.2, 0.5])
         self.assertEqual(c_plot["xticks"], ["bbbbbbb", "ccccccc"])
         self.assertEqual(c_plot["series"][0]["values"], [0.99, self.s["c"]])
-        self.assertEqual([x["label"] for x in time_plot["series"]], ["serial stepping time", "serial wall time"])
-        self.assertEqual(time_plot["series"][1]["values"], [2.0, 1.1])
+        self.assertEqual([x["label"] for x in time_plot["series"]], ["serial stepping time"])
+        self.assertEqual([x["label"] for x in startup_plot["series"]], ["serial start-up"])
 
     def test_regressions_mark_the_commit_that_changed_a_quantity(self):
         s = self.s
@@ -465,6 +609,9 @@ class HistoryJunitStaticTest(DashboardTest):
         self.assertIn('<span class="change quantity">quantity</span>', table)
         self.assertIn("contact_models/hertz/impact/serial", table)
         self.assertIn(f"ke C = {s['c']:.3g}", table)
+        # five histories (hertz on dem-v1 and on master, hooke serial and mpi4, settle): one over two builds
+        self.assertIn('in 5 histories, <strong class="comparable">1</strong> of them with runs of two or more builds',
+                      html)
         self.assertIn(f'href="/history/{s["master"].pk}/contact_models/hertz/impact/?machine={s["ws1"].pk}"', table)
         url = f"/history/{s['master'].pk}/{s['hertz'].path}/plots.json?machine={s['ws1'].pk}"
         c_plot = json.loads(self.get(url).content)["plots"][0]

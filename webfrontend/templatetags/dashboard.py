@@ -94,3 +94,46 @@ def compare_limit():
     from django.conf import settings
 
     return settings.DASHBOARD_COMPARE_LIMIT
+
+
+@register.filter
+def speed_change(speed):
+    """'+12 %' (slower) or '-8 %' (faster) of a stepping-time change (harness.queries.stepping_changes)."""
+    from webfrontend.presentation import speed_change as change
+
+    return change(speed["ratio"], speed.get("noise") or 0.0)
+
+
+VERDICT_LABELS = {"passed": "passed", "failed": "failed", "not_run": "not run"}
+
+
+@register.filter
+def verdict_label(value):
+    """The word of the glossary (docs/glossary.md) for a verdict category."""
+    return VERDICT_LABELS.get(value, value)
+
+
+@register.simple_tag
+def glossary(term):
+    """The glossary's sentence for ``term`` (harness.glossary, docs/glossary.md), for a tooltip."""
+    from harness.glossary import define
+
+    return define(term)
+
+
+LEVEL_LABELS = {"perfect": "perfect", "good": "good", "inconsistent": "inconsistent", "no_reference": "no reference run",
+                "": "not checked", "length_mismatch": "length mismatch", "missing": "missing"}
+
+
+@register.filter
+def level_label(value):
+    """A consistency level in the glossary's words (lower case, as the CLI prints it)."""
+    return LEVEL_LABELS.get(value, value)
+
+
+@register.filter
+def defined(term):
+    """The glossary's sentence for ``term``, or '' for a word it lacks (for tooltips on stored values)."""
+    from harness.glossary import ALL
+
+    return ALL.get(str(term), "")

@@ -7,6 +7,7 @@
       .then(function (response) { if (!response.ok) { throw new Error(response.status); } return response.json(); })
       .then(function (data) {
         var chart = flamegraph()
+          // at least 600 px, so that a frame stays readable; a narrower screen scrolls it in its box (.scroll)
           .width(Math.max(600, element.clientWidth))
           .cellHeight(18)
           .minFrameSize(2)

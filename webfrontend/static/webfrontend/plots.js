@@ -13,6 +13,31 @@
     return String(+v.toPrecision(6));
   }
 
+  /* Tick labels of one axis in one form: all fixed-point with the decimals the tick step needs (0.0002,
+   * 0.0010), or, for very large or very small values, all in exponent form with the digits that keep them
+   * apart (2.0e-5, 1.2e-4) - never 0.001 beside 8.0000e-4. */
+  function ticks(splits) {
+    var finite = splits.filter(function (v) { return v !== null && isFinite(v); });
+    if (finite.length < 2) return splits.map(fmt);
+    var step = Math.abs(finite[1] - finite[0]) || Math.abs(finite[0]) || 1;
+    var big = Math.max.apply(null, finite.map(Math.abs));
+    if (big >= 1e5 || big < 1e-3) {
+      for (var d = 0; d <= 6; d++) {
+        var labels = splits.map(function (v) { return v === 0 ? "0" : v.toExponential(d); });
+        if (new Set(labels).size === labels.length) return labels;
+      }
+    }
+    var decimals = Math.max(0, Math.min(12, Math.ceil(-Math.log10(step) - 1e-9)));
+    return splits.map(function (v) { return v.toFixed(decimals); });
+  }
+
+  /* Room for the y tick labels (px), so that the axis title never overlaps them. */
+  function ySize(u, values) {
+    if (!values || !values.length) return 50;
+    var longest = Math.max.apply(null, values.map(function (v) { return String(v).length; }));
+    return Math.max(44, 26 + 8 * longest);  // tick 10 px, gap 5 px, about 8 px a character at 12 px
+  }
+
   function seriesOptions(spec) {
     var opts = [{
       label: spec.xlabel,
@@ -58,7 +83,7 @@
 
   function xAxis(spec) {
     var axis = { label: spec.xlabel, stroke: "#333", grid: { stroke: "#e4e4e4" },
-                 values: function (u, splits) { return splits.map(fmt); } };
+                 values: function (u, splits) { return ticks(splits); } };
     if (spec.xticks) {
       // a categorical abscissa (commits): ticks only at whole indices, named by their labels
       axis.incrs = [1, 2, 5, 10, 20, 50, 100];
@@ -94,9 +119,9 @@
         y: spec.ylimits ? { distr: spec.ylog ? 3 : 1, range: function () { return spec.ylimits; } }
                         : { distr: spec.ylog ? 3 : 1 }
       },
-      // ticks in the same short form as the legend (uPlot's default rounds 1.2e-3 and 1.4e-3 alike)
-      axes: [xAxis(spec), { label: spec.ylabel, stroke: "#333", size: 70, grid: { stroke: "#e4e4e4" },
-                            values: function (u, splits) { return splits.map(fmt); } }],
+      // ticks in one form per axis (uPlot's default rounds 1.2e-3 and 1.4e-3 alike), room for them
+      axes: [xAxis(spec), { label: spec.ylabel, stroke: "#333", size: ySize, grid: { stroke: "#e4e4e4" },
+                            values: function (u, splits) { return ticks(splits); } }],
       cursor: { drag: { x: true, y: true, uni: 30 } },
       legend: { live: true },
       hooks: { draw: [markersHook(spec)] }
@@ -149,5 +174,5 @@
   }
   if (document.readyState === "loading") document.addEventListener("DOMContentLoaded", start);
   else start();
-  window.dashboardPlots = { draw: draw, fmt: fmt };
+  window.dashboardPlots = { draw: draw, fmt: fmt, ticks: ticks };
 })();

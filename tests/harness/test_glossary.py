@@ -1,0 +1,25 @@
+"""docs/glossary.md says what harness/glossary.py says (the dashboard's tooltips and the CLI's help use the
+module): every word with its very sentence, and no word the module lacks."""
+import re
+
+from harness import glossary
+from harness.workspace import PROJECT_ROOT
+
+
+def test_the_glossary_page_holds_every_word_of_the_module():
+    text = (PROJECT_ROOT / "docs" / "glossary.md").read_text()
+    sections = dict(re.findall(r"^## (.+)\n((?:.*\n)*?)(?=^## |\Z)", text + "\n", re.M))
+    assert set(sections) == set(glossary.SECTIONS)
+    for title, words in glossary.SECTIONS.items():
+        rows = dict(re.findall(r"^\| ([^|]+?) \| ([^|]+) \|$", sections[title], re.M))
+        rows.pop("word", None)
+        rows.pop("---", None)
+        assert rows == words, title
+
+
+def test_every_dashboard_tooltip_names_a_glossary_word():
+    """A ``{% glossary 'word' %}`` in a template names a word the glossary defines (else the page fails)."""
+    used = set()
+    for template in (PROJECT_ROOT / "webfrontend" / "templates").rglob("*.html"):
+        used |= set(re.findall(r"{% glossary '([^']+)' %}", template.read_text()))
+    assert used and used <= set(glossary.ALL)

@@ -1,0 +1,178 @@
+"""Every dashboard page at a desktop width (1400 px) and a phone width (390 px) in a real browser.
+
+Two rules a reader notices at once when broken, checked on every page at both widths:
+- a table cell holding one word or number (no space in it) is never broken over two lines ("sele ct",
+  "0.94 91");
+- the page itself never scrolls sideways; a table wider than the screen scrolls inside its own box.
+Full-page screenshots go to test-artifacts/layout_<page>_<width>.png, to be looked at.
+"""
+from __future__ import annotations
+
+import pytest
+from test_browser import ARTIFACTS, BrowserCase
+
+WIDTHS = (1400, 390)
+
+#: for every cell of every table whose text has no white space: the number of distinct line tops of each of
+#: its text nodes (more than one: the word was broken); returns the offenders as "text (lines)"
+BROKEN_WORDS = """() => {
+  const broken = [];
+  for (const cell of document.querySelectorAll('main td, main th')) {
+    const text = cell.innerText.trim();
+    if (!text || /\\s/.test(text)) continue;
+    const walker = document.createTreeWalker(cell, NodeFilter.SHOW_TEXT);
+    for (let node = walker.nextNode(); node; node = walker.nextNode()) {
+      if (!node.textContent.trim()) continue;
+      const range = document.createRange();
+      range.selectNodeContents(node);
+      const tops = new Set([...range.getClientRects()].filter(r => r.width > 0 && r.height > 0)
+                           .map(r => Math.round(r.top)));
+      if (tops.size > 1) { broken.push(`${text} (${tops.size} lines)`); break; }
+    }
+  }
+  return broken;
+}"""
+
+#: elements wider than the screen that are not inside a box that scrolls sideways on its own
+OVERFLOWING = """(width) => {
+  const out = [];
+  for (const el of document.querySelectorAll('body *')) {
+    const r = el.getBoundingClientRect();
+    if (r.right <= width + 1 || r.width === 0) continue;
+    let p = el.parentElement, boxed = false;
+    while (p && p !== document.body) {
+      const style = getComputedStyle(p);
+      if (['auto', 'scroll', 'hidden'].includes(style.overflowX) && p.getBoundingClientRect().right <= width + 1) {
+        boxed = true; break;
+      }
+      p = p.parentElement;
+    }
+    if (!boxed) out.push(el.tagName.toLowerCase() + (el.className ? '.' + el.className : '') + ` (${Math.round(r.right)} px)`);
+  }
+  return out.slice(0, 10);
+}"""
+
+
+class LayoutTest(BrowserCase):
+    def pages(self) -> dict[str, str]:
+        s = self.s
+        run, other, target = s["inconsistent"].pk, s["reference"].pk, s["master"].pk
+        case = s["inconsistent"].testcase.path
+        return {
+            "overview": "/",
+            "overview_consistency": "/?mode=consistency",
+            "folder": f"/m/{s['ws1'].pk}/t/{target}/",
+            "folder_testcase": f"/m/{s['ws1'].pk}/t/{target}/f/{case}/",
+            "testcase": f"/testcases/{case}/",
+            "search": "/?q=impact",
+            "run": f"/runs/{run}/",
+            "run_failed": f"/runs/{s['failed'].pk}/",
+            "consistency": f"/runs/{run}/consistency/",
+            "compare": f"/compare/?run={other}&run={run}",
+            "compare_builds": f"/builds/compare/?a={s['older'].build_id}&b={s['new_build'].pk}",
+            "compare_builds_default": "/builds/compare/",
+            "history": f"/history/{target}/{case}/",
+            "commit": f"/commits/dem-master/{s['new_build'].commit}/?machine=ws1",
+            "regressions": f"/regressions/?machine={s['ws1'].pk}",
+            "sweeps": "/sweeps/",
+            "matrix": "/matrix/",
+            "login": "/accounts/login/",
+            "not_found": "/runs/999999/",
+        }
+
+    def efficiency_pages(self) -> dict[str, str]:
+        """A failed build, scaling studies at two commits, timing breakdowns and two profiled runs (as in
+        tests/web/test_dashboard_efficiency.py), and the pages that show them."""
+        from datetime import timedelta
+
+        from test_dashboard_efficiency import STACKS_A, STACKS_B, T0, TIMES, breakdown
+
+        from harness import scaling
+        from harness.models import Build, Run, Target, TestCase
+
+        machine = self.s["ws1"]
+        target = Target.objects.create(name="liggghts-src", definition={"recipe": "cmake"})
+        case = TestCase.objects.create(path="liggghts/settling")
+        builds, profiled = [], []
+        for i, commit in enumerate(TIMES):
+            build = Build.objects.create(target=target, machine=machine, revision="HEAD", commit=commit,
+                                         definition_hash="d", status="complete", current=i == 1,
+                                         committed_at=T0 + timedelta(days=i))
+            builds.append(build)
+            for point in scaling.expand({"name": "scaling", "script": "in.settling", "scaling": {"cores": [1, 2]}}):
+                cores = point["scaling_point"]["cores"]
+                Run.objects.create(machine=machine, target=target, build=build, testcase=case, name=point["name"],
+                                   state="post_processed", config=point, stepping_time=TIMES[commit][cores],
+                                   breakdown=breakdown(TIMES[commit][cores] * 0.8, 0.5, cores, 0.3 * (cores - 1)))
+        for build, stacks, pair in ((builds[0], STACKS_A, 1.0), (builds[1], STACKS_B, 3.0)):
+            folder = self.root / f"profile-{build.commit[:4]}"
+            folder.mkdir()
+            (folder / "profile.folded").write_text(stacks)
+            profiled.append(Run.objects.create(
+                machine=machine, target=target, build=build, testcase=case, name="serial", state="post_processed",
+                config={"name": "serial"}, stepping_time=pair + 0.6, breakdown=breakdown(pair, 0.5),
+                folder=str(folder), profile="profile.folded"))
+        error = "../src/src/finish.cpp:722:40: error: ordered comparison of pointer with integer zero"
+        failed = Build.objects.create(
+            target=target, machine=machine, revision="3.8.0", commit="f" * 40, definition_hash="d",
+            status="failed", started=T0 + timedelta(days=3), finished=T0 + timedelta(days=3, seconds=312.5),
+            log="[ 40%] Building CXX object finish.cpp.o\n" + error + "\nmake: *** [all] Error 2\n",
+            details={"recipe": "cmake", "error": error, "duration_s": 312.5, "jobs": 2,
+                     "compiler": "c++ (Debian 12.2.0-14) 12.2.0",
+                     "cmake_options": {"CMAKE_BUILD_TYPE": "Release", "ENABLE_VTK": "OFF"}, "patches": []})
+        a, b = profiled
+        return {
+            "overview_failed_build": "/",
+            "build_failed": f"/builds/{failed.pk}/",
+            "build_complete": f"/builds/{builds[1].pk}/",
+            "scaling": "/scaling/",
+            "scaling_build": f"/scaling/?build={builds[0].pk}",
+            "breakdown": f"/breakdown/{target.pk}/{case.path}/",
+            "run_with_breakdown": f"/runs/{b.pk}/",
+            "compare_with_breakdown": f"/compare/?run={a.pk}&run={b.pk}",
+            "profile": f"/runs/{b.pk}/profile/",
+            "profile_diff": f"/profiles/diff/?run={a.pk},{b.pk}",
+        }
+
+    def test_every_page_at_desktop_and_phone_width(self):
+        page = self.page
+        problems = []
+        pages = {**self.pages(), **self.efficiency_pages()}
+        for width in WIDTHS:
+            page.set_viewport_size({"width": width, "height": 900})
+            for name, url in pages.items():
+                response = page.goto(self.live_server_url + url)
+                assert response.status in (200, 404), f"{name}: HTTP {response.status}"
+                if page.locator("#flamegraph").count():
+                    page.wait_for_function("() => document.getElementById('flamegraph').dataset.drawn === '1'")
+                    page.wait_for_timeout(800)  # d3-flame-graph's transitions
+                self.screenshot(f"layout_{name}_{width}.png")
+                broken = page.evaluate(BROKEN_WORDS)
+                if broken:
+                    problems.append(f"{name} at {width} px: words broken in table cells: {broken}")
+                scroll = page.evaluate("() => document.documentElement.scrollWidth")
+                if scroll > width:
+                    problems.append(f"{name} at {width} px: the page is {scroll} px wide, it scrolls sideways: "
+                                    f"{page.evaluate(OVERFLOWING, width)}")
+        assert not problems, "\n".join(problems)
+
+    def test_the_checks_catch_a_broken_word_and_a_wide_page(self):
+        """The two checks above can fail: a narrow cell breaking a long word, and a wide block."""
+        page = self.page
+        page.set_viewport_size({"width": 390, "height": 900})
+        page.goto(self.live_server_url + "/")
+        page.evaluate("""() => {
+          const t = document.createElement('table');
+          t.innerHTML = '<tr><td style="width:3em;max-width:3em;overflow-wrap:anywhere;white-space:normal">' +
+                        'averyveryverylongword</td></tr>';
+          document.querySelector('main').appendChild(t);
+          const d = document.createElement('div'); d.style.width = '900px'; d.textContent = 'wide';
+          document.querySelector('main').appendChild(d);
+        }""")
+        assert page.evaluate(BROKEN_WORDS)
+        assert page.evaluate("() => document.documentElement.scrollWidth") > 390
+
+
+@pytest.fixture(autouse=True)
+def _artifacts():
+    ARTIFACTS.mkdir(exist_ok=True)
