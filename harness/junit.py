@@ -7,7 +7,8 @@ target, its commit and the reference target's commits, and a ``<testcase>`` per 
 decimals (the schema's SUREFIRE_TIME); a testcase carries only ``name``, ``classname`` and ``time``.
 A failed run or an inconsistency not accepted by a reviewer is a ``<failure>``; a run not executed is
 ``<skipped>`` (a failure unless ``--allow-missing``); a target whose current build failed has a suite
-``TARGET/build`` with the one failing test case ``build``; ``<system-out>`` says what the verdict was computed on, then the log tail.
+``TARGET/build`` with the one failing test case ``build``; ``<system-out>`` says what the verdict was
+computed on, then the log tail.
 """
 from __future__ import annotations
 

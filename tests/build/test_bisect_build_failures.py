@@ -6,7 +6,8 @@ import shutil
 import sys
 
 import pytest
-from build_support import CMAKELISTS_LAUNCHER, FAKE_ENGINE, LAUNCHER, SCENE, commit_files, git_repo, harness, write_target
+from build_support import (CMAKELISTS_LAUNCHER, FAKE_ENGINE, LAUNCHER, SCENE, commit_files, git_repo, harness,
+                           write_target)
 
 pytestmark = pytest.mark.skipif(not (shutil.which("cmake") and shutil.which("c++")),
                                 reason="needs cmake and a C++ compiler (scripts/setup.sh)")

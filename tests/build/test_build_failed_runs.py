@@ -68,7 +68,8 @@ def test_a_revision_that_does_not_compile_fails_its_runs_and_the_junit_build_cas
 
     text = junit.read_text()
     cases = _cases(text)
-    assert cases == {"solo.cases.fall/drop": ("failed", "build_failed"), "solo.cases.fall/again": ("failed", "build_failed"),
+    assert cases == {"solo.cases.fall/drop": ("failed", "build_failed"),
+                     "solo.cases.fall/again": ("failed", "build_failed"),
                      "solo.build/build": ("failed", "build_failed")}
     root = ET.fromstring(text)
     assert (root.get("tests"), root.get("failures")) == ("3", "3")
@@ -80,7 +81,8 @@ def test_a_revision_that_does_not_compile_fails_its_runs_and_the_junit_build_cas
     assert dashboard_junit({"home": home}) == text
 
     overview = subprocess.run([sys.executable, "-c", OVERVIEW], cwd=ROOT, capture_output=True, text=True,
-                              timeout=300, env={**_env({"home": home}), "DJANGO_SETTINGS_MODULE": "webfrontend.settings"})
+                              timeout=300,
+                              env={**_env({"home": home}), "DJANGO_SETTINGS_MODULE": "webfrontend.settings"})
     assert overview.returncode == 0, overview.stderr
     row = overview.stdout[overview.stdout.index('<tr class="target '):]
     row = row[:row.index("</tr>")]
