@@ -118,14 +118,31 @@ def find_build(target: TargetDefinition, machine_name: str, info: dict | None = 
 
 
 def failed_build(target: TargetDefinition, machine_name: str):
-    """The stored failed build of the commit ``target``'s revision resolves to now, or None: its runs are not
-    executed (reason ``BUILD_FAILED``) and JUnit shows it as the failing test case ``build``
-    (``harness.junit.build_failure_suite``)."""
+    """The stored failed build (not an interrupted one) of the commit ``target``'s revision resolves to now,
+    or None; it becomes current unless the revision was given on the command line (``TARGET@REV``). Its runs
+    are recorded failed with reason ``BUILD_FAILED`` (``record_build_failure``) and JUnit shows it as the
+    failing test case ``build`` (``harness.junit.build_failure_suite``)."""
     from harness.models import Build
 
     info = resolve_commit(target)
-    return Build.objects.filter(target__name=target.name, machine__name=machine_name, commit=info["commit"],
-                                definition_hash=target.definition_hash, status=Build.Status.FAILED).first()
+    build = Build.objects.filter(target__name=target.name, machine__name=machine_name, commit=info["commit"],
+                                 definition_hash=target.definition_hash, status=Build.Status.FAILED).first()
+    if build is None or (build.details or {}).get("interrupted") or build.finished is None:
+        return None
+    if not target.explicit_revision:
+        make_current(build)
+    return build
+
+
+def record_build_failure(target: TargetDefinition, build, machine_name: str, pattern: str | None = None,
+                         working_tree: bool = False):
+    """Record every selected run configuration of ``target`` that has no row at the failed ``build`` as
+    failed with reason ``BUILD_FAILED`` and the build's first error line (``harness.coverage``): the runs
+    were never executed (no start time, no run folder) and fail the gate, whatever ``--allow-missing``."""
+    from harness.coverage import record_selection
+
+    return record_selection(target, build, machine_name, pattern, working_tree,
+                            missing=(BUILD_FAILED, (build.details or {}).get("error") or "build failed"))
 
 
 def current_build(target, machine_name: str):
@@ -157,7 +174,7 @@ def build_target(target: TargetDefinition, machine_name: str, force: bool = Fals
     processes building the same target and commit wait for each other (a lock per build folder) and build
     it once. A failed build is stored (status failed, log, duration, first error line) and raises
     BuildError; asking again gives the stored failure without building, unless ``force`` (or the failed
-    attempt was interrupted).
+    attempt was interrupted). A failed build of the revision becomes current as a complete one does.
     """
     from harness.models import Build, Run
 
@@ -181,9 +198,18 @@ def build_target(target: TargetDefinition, machine_name: str, force: bool = Fals
             defaults={"revision": target.revision})
         if (build.status == Build.Status.FAILED and not force and not (build.details or {}).get("interrupted")
                 and build.finished is not None):
+            if not target.explicit_revision:
+                make_current(build)
             raise BuildError(failure_message(target.name, build) + " - a stored result; --force builds it again")
         if not (build.status == Build.Status.COMPLETE and not force and (folder / DONE_MARKER).is_file()):
-            _run_recipe(target, build, info, folder, say, jobs)
+            try:
+                _run_recipe(target, build, info, folder, say, jobs)
+            except BuildError:
+                # the revision resolves to a commit that does not build: that failed build is its current
+                # build (its runs are failed build_failed; the runs of the build before are outdated)
+                if not target.explicit_revision:
+                    make_current(build)
+                raise
             if force:
                 # a forced rebuild replaces the binary of this commit too: its results are outdated
                 build.runs.exclude(state=Run.State.OUTDATED).update(state=Run.State.OUTDATED, replaced=True)

@@ -20,7 +20,7 @@ from pathlib import Path
 from harness import junit
 from harness.adapters.base import UserError
 from harness.junit import provenance  # noqa: F401  (what a verdict was computed on; the dashboard shows it)
-from harness.builds import current_build
+from harness.builds import current_build, failed_build, failure_message, record_build_failure
 from harness.coverage import covered_runs, earlier_content_run, record_selection, selected
 from harness.consistency import FAILING_LEVELS, QuantityResult, compare_runs, run_level
 from harness.rules import find_reference_run, override_keys, stale_reference
@@ -44,6 +44,8 @@ class CheckReport:
     problems: list[str] = field(default_factory=list)
     #: reference runs of other test case content than the runs they would be compared with
     stale_references: list[str] = field(default_factory=list)
+    #: failed builds of the targets' revisions (``harness.builds.failed_build``): one JUnit failure each
+    failed_builds: list = field(default_factory=list)
 
     @property
     def failed(self) -> list[RunVerdict]:
@@ -160,10 +162,22 @@ def check_targets(targets, machine: str, pattern: str | None = None, allow_missi
     """Check every selected run configuration of each target's current build at the test case content of
     now (``pattern``: only runs whose ``testcase/run`` match, as ``-k``): the store is first brought in line
     with the selection (``harness.coverage.record_selection``), then every covered run gets a verdict -
-    broken configurations and runs not executed included."""
+    broken configurations and runs not executed included. A target whose revision does not build: its runs
+    are failed with reason build_failed, the build is in ``failed_builds`` and a problem."""
     report = CheckReport()
     for target in targets:
         build = current_build(target, machine)
+        failed = failed_build(target, machine) if build is None else None
+        if failed is not None:
+            # the revision does not build: its selected runs are failures (build_failed), and the build is
+            # the failing JUnit test case ``build`` of the target
+            record_build_failure(target, failed, machine, pattern)
+            report.failed_builds.append(failed)
+            report.problems.append(failure_message(target.name, failed))
+            report.verdicts += [verdict_of(run, [], bool(target.reference), allow_missing)
+                                for run in covered_runs(build=failed, machine=machine)
+                                if selected(pattern, run.testcase.path, run.name)]
+            continue
         if build is None:
             report.problems.append(f"target {target.name!r} has no complete build of its revision "
                                    f"{target.revision!r} on machine {machine!r} "
@@ -195,7 +209,7 @@ def check_targets(targets, machine: str, pattern: str | None = None, allow_missi
 
 def junit_xml(report: CheckReport) -> str:
     """JUnit XML of a check (``harness.junit``, the writer the dashboard uses too)."""
-    return junit.junit_xml(report.verdicts)
+    return junit.junit_xml(report.verdicts, report.failed_builds)
 
 
 def write_junit(report: CheckReport, path: Path) -> None:

@@ -16,8 +16,10 @@ not executed), ``harness check`` and ``harness ci`` before they give verdicts. A
 when missing, never overwritten with "not executed", so a process that stores a finished run at the same
 moment loses nothing.
 
-A build that failed has no rows to cover: its target is reported as a problem of the check (no complete
-build), which fails the gate as well.
+A target whose revision does not build has that failed build as its current build
+(``harness.builds.failed_build``): its selected run configurations are rows failed with reason
+``build_failed`` (``missing`` below; never executed, so no start time), and ``failed_current_builds`` adds
+the build itself to the JUnit XML as the failing test case ``build``.
 """
 from __future__ import annotations
 
@@ -156,3 +158,16 @@ def earlier_content_run(run):
     return (Run.objects.filter(machine_id=run.machine_id, build_id=run.build_id, testcase_id=run.testcase_id,
                                name=run.name, replaced=True).exclude(testcase_hash=run.testcase_hash)
             .exclude(finished=None).order_by("-finished", "-id").first())
+
+
+def failed_current_builds(machine_id: int | None = None, target_id: int | None = None):
+    """The current builds that failed (optionally of one machine and target): the targets whose revision does
+    not build. Both JUnit writers add one failing test case ``build`` for each (``harness.junit``)."""
+    from harness.models import Build
+
+    builds = Build.objects.filter(current=True, status=Build.Status.FAILED).select_related("target", "machine")
+    if machine_id is not None:
+        builds = builds.filter(machine_id=machine_id)
+    if target_id is not None:
+        builds = builds.filter(target_id=target_id)
+    return list(builds.order_by("target__name", "machine__name", "pk"))

@@ -11,7 +11,8 @@ STATES = {
     "not executed": "The run is known (its run configuration was found) but has not been executed yet.",
     "executed": "The engine ran and exited; its output is not post-processed yet.",
     "failed": "The run did not complete: non-zero exit code, signal, timeout, non-finite values, missing output, "
-              "an expectation not met or a failed stability check (the failure reason says which).",
+              "an expectation not met, a failed stability check, or its build failed and it never executed "
+              "(the failure reason says which).",
     "post-processed": "The run completed and its output was read into data series (thermo, plots, text files); "
                       "it is not compared with its reference run yet.",
     "version-consistency-checked": "The run's data series were compared with the reference run's by "

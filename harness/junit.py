@@ -6,7 +6,9 @@ target, its commit and the reference target's commits, and a ``<testcase>`` per 
 ``TARGET.folder.subfolder`` (runs of two targets never collide). Times are seconds with at most three
 decimals (the schema's SUREFIRE_TIME); a testcase carries only ``name``, ``classname`` and ``time``.
 A failed run or an inconsistency not accepted by a reviewer is a ``<failure>``; a run not executed is
-``<skipped>``; ``<system-out>`` says what the verdict was computed on, then the log tail.
+``<skipped>`` (a failure unless ``--allow-missing``); a target whose current build failed has a suite
+``TARGET/build`` with the one failing test case ``build``; ``<system-out>`` says what the verdict was
+computed on, then the log tail.
 """
 from __future__ import annotations
 
@@ -67,8 +69,10 @@ def _case(verdict) -> ET.Element:
     return case
 
 
-def junit_xml(verdicts) -> str:
-    """The XML text for ``verdicts`` (``harness.check.RunVerdict``: run, status, message, kind, ...)."""
+def junit_xml(verdicts, failed_builds=()) -> str:
+    """The XML text for ``verdicts`` (``harness.check.RunVerdict``: run, status, message, kind, ...), then a
+    ``build_failure_suite`` per failed build of ``failed_builds`` (the targets' current builds that failed),
+    ordered by target and machine so that every caller writes the same bytes."""
     suites: dict[tuple[str, str], list] = {}
     for verdict in verdicts:
         suites.setdefault((verdict.run.target.name, verdict.run.testcase.path), []).append(verdict)
@@ -94,6 +98,12 @@ def junit_xml(verdicts) -> str:
         totals["tests"] += len(members)
         totals["failures"] += failures
         totals["time"] += time
+    for build in sorted(failed_builds, key=lambda b: (b.target.name, b.machine.name, b.pk)):
+        suite = build_failure_suite(build)
+        root.append(suite)
+        totals["tests"] += 1
+        totals["failures"] += 1
+        totals["time"] += float(build.duration or 0.0)
     root.set("tests", str(totals["tests"]))
     root.set("failures", str(totals["failures"]))
     root.set("errors", "0")

@@ -122,6 +122,7 @@ class Run(models.Model):
         CONFIG = "config", "invalid configuration"
         EXPECTATION = "expectation", "expectation not met"
         STABILITY = "stability", "stability check failed"
+        BUILD_FAILED = "build_failed", "build failed"
 
     class Consistency(models.TextChoices):
         NOT_CHECKED = "", "not checked"

@@ -27,7 +27,7 @@ from harness import execute as ex
 from harness import scaling
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
-from harness.builds import build_target
+from harness.builds import BuildError, build_target, failed_build, record_build_failure
 from harness.rules import SUCCESS_STATES, effective_state
 from harness.targets import TargetDefinition
 from harness.testcases import RunEntry, TestCaseSpec, discover
@@ -181,7 +181,14 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
 
     from harness.coverage import record_selection, selected
 
-    build = _build_in_use(target, options, report, say)
+    try:
+        build = _build_in_use(target, options, report, say)
+    except BuildError:
+        # a revision that does not build: its selected runs are in the store, failed build_failed
+        failed = failed_build(target, options.machine)
+        if failed is not None:
+            record_build_failure(target, failed, options.machine, options.pattern, options.working_tree)
+        raise
     adapter = get_adapter(target.engine)
     testcases, problems = discover(target, adapter, options.working_tree)
     # every selected run configuration is in the store before any runs: one killed before it started is

@@ -22,7 +22,7 @@ RECORD_FILE = "run.json"
 STATES = ("not_executed", "executed", "failed", "post_processed", "consistency_checked", "outdated")
 FAILURE_REASONS = ("", "exit_code", "signal", "timeout", "non_finite", "missing_output", "error_line",
                    "interrupted", "post_script", "post_processing", "dependency", "config", "expectation",
-                   "stability")
+                   "stability", "build_failed")
 SERIES_KINDS = ("thermo", "plot", "vtk", "textfile")
 
 

@@ -47,7 +47,10 @@ def stored_report(runs, allow_missing: bool = False) -> CheckReport:
     return CheckReport(verdicts=[stored_verdict(run, allow_missing) for run in runs])
 
 
-def stored_junit_xml(runs, allow_missing: bool = False) -> str:
-    """JUnit XML of ``runs`` (e.g. ``current_runs(machine, target)``) by harness.check's writer;
+def stored_junit_xml(runs, allow_missing: bool = False, failed_builds=()) -> str:
+    """JUnit XML of ``runs`` (e.g. ``current_runs(machine, target)``) and of ``failed_builds`` (e.g.
+    ``harness.coverage.failed_current_builds(machine, target)``) by harness.check's writer;
     ``allow_missing`` as ``harness check --allow-missing``."""
-    return junit_xml(stored_report(runs, allow_missing))
+    report = stored_report(runs, allow_missing)
+    report.failed_builds = list(failed_builds)
+    return junit_xml(report)

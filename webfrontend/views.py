@@ -20,7 +20,7 @@ from django.views.decorators.http import require_POST
 
 from harness.builds import current_build
 from harness.models import Build, ConsistencyResult, Machine, Override, Run, Series, Target, TestCase
-from harness.coverage import covered
+from harness.coverage import covered, failed_current_builds
 from harness.queries import CONSISTENCY_CATEGORIES, STATE_CATEGORIES, stepping_changes
 from harness.verdicts import current_runs, stored_junit_xml, stored_verdict
 from webfrontend import params, plots, presentation
@@ -114,7 +114,7 @@ def overview(request):
     shown = list(Build.objects.filter(Q(current=True) | Q(pk__in=Build.objects.unresolved_failures().values("pk")))
                  .select_related("target", "machine").defer("log", "environment"))
     builds = {(b.machine_id, b.target_id): b for b in shown if b.current}
-    failed_builds = sorted((b for b in shown if b.status == Build.Status.FAILED and not b.current),
+    failed_builds = sorted((b for b in shown if b.status == Build.Status.FAILED),
                            key=lambda b: (b.machine.name, b.target.name, -(b.finished.timestamp() if b.finished else 0)))
     if selected is not None:
         failed_builds = [b for b in failed_builds if b.machine_id == selected]
@@ -483,7 +483,8 @@ def junit(request):
         machine = machines[0].pk if machines else None
     # ?allow_missing=1: runs not executed are skipped, as `harness check --allow-missing` writes them
     allow_missing = params.choice(request.GET, "allow_missing", ("0", "1"), "0") == "1"
-    response = HttpResponse(stored_junit_xml(current_runs(machine, target), allow_missing),
+    response = HttpResponse(stored_junit_xml(current_runs(machine, target), allow_missing,
+                                             failed_current_builds(machine, target)),
                             content_type="application/xml")
     response["Content-Disposition"] = 'attachment; filename="junit.xml"'
     return response

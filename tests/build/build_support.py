@@ -77,3 +77,27 @@ def harness(home: Path, targets: Path, *args, timeout=600, env=None, popen=False
         return subprocess.Popen(command, cwd=ROOT, env=environment, stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE, text=True)
     return subprocess.run(command, cwd=ROOT, env=environment, capture_output=True, text=True, timeout=timeout)
+
+
+# the fake engine of tests/harness behind a tiny C++ launcher: every commit is a real C++ build (a second)
+FAKE_ENGINE = (ROOT / "tests" / "harness" / "fake_engine" / "__main__.py").read_text()
+LAUNCHER = """#include <unistd.h>
+#include <vector>
+// runs the engine's Python source with the arguments given to this program
+int main(int argc, char **argv) {
+  std::vector<char *> args;
+  args.push_back(const_cast<char *>(PYTHON));
+  args.push_back(const_cast<char *>(ENGINE_MAIN));
+  for (int i = 1; i < argc; ++i) args.push_back(argv[i]);
+  args.push_back(nullptr);
+  execv(PYTHON, args.data());
+  return 127;
+}
+"""
+CMAKELISTS_LAUNCHER = """cmake_minimum_required(VERSION 3.13)
+project(fake CXX)
+add_executable(fake_engine launcher.cpp)
+target_compile_definitions(fake_engine PRIVATE PYTHON="${PYTHON}"
+                           ENGINE_MAIN="${CMAKE_CURRENT_SOURCE_DIR}/__main__.py")
+"""
+SCENE = json.dumps([{"command": "create", "heights": [1.0, 0.5]}, {"command": "run", "steps": 100, "every": 20}])

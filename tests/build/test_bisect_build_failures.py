@@ -4,41 +4,18 @@ built with CMake, so that every commit is a real C++ build (about a second each)
 import json
 import shutil
 import sys
-from pathlib import Path
 
 import pytest
-from build_support import ROOT, commit_files, git_repo, harness, write_target
+from build_support import (CMAKELISTS_LAUNCHER, FAKE_ENGINE, LAUNCHER, SCENE, commit_files, git_repo, harness,
+                           write_target)
 
 pytestmark = pytest.mark.skipif(not (shutil.which("cmake") and shutil.which("c++")),
                                 reason="needs cmake and a C++ compiler (scripts/setup.sh)")
 
-FAKE_ENGINE = (ROOT / "tests" / "harness" / "fake_engine" / "__main__.py").read_text()
-LAUNCHER = """#include <unistd.h>
-#include <vector>
-// runs the engine's Python source with the arguments given to this program
-int main(int argc, char **argv) {
-  std::vector<char *> args;
-  args.push_back(const_cast<char *>(PYTHON));
-  args.push_back(const_cast<char *>(ENGINE_MAIN));
-  for (int i = 1; i < argc; ++i) args.push_back(argv[i]);
-  args.push_back(nullptr);
-  execv(PYTHON, args.data());
-  return 127;
-}
-"""
-CMAKELISTS = """cmake_minimum_required(VERSION 3.13)
-project(fake CXX)
-add_executable(fake_engine launcher.cpp)
-target_compile_definitions(fake_engine PRIVATE PYTHON="${PYTHON}"
-                           ENGINE_MAIN="${CMAKE_CURRENT_SOURCE_DIR}/__main__.py")
-"""
-SCENE = json.dumps([{"command": "create", "heights": [1.0, 0.5]}, {"command": "run", "steps": 100, "every": 20}])
-
-
 def test_bisect_skips_a_commit_that_does_not_compile(tmp_path):
     repo = git_repo(tmp_path / "repo")
     commit_files(repo, {"engine/__main__.py": FAKE_ENGINE, "engine/launcher.cpp": LAUNCHER,
-                        "engine/CMakeLists.txt": CMAKELISTS, "cases/fall/scene.json": SCENE,
+                        "engine/CMakeLists.txt": CMAKELISTS_LAUNCHER, "cases/fall/scene.json": SCENE,
                         "cases/fall/run.config": json.dumps({"runs": [{"name": "drop", "script": "scene.json"}]})},
                  "start", tag="good")
     commits = []
