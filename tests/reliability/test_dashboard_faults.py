@@ -441,9 +441,11 @@ def test_runserver_migrates_an_older_store_the_cli_made(tmp_path, servers):
     status, body = server.get("/")
     html = body.decode()
     assert status == 200, html
-    assert "machine old-box" in html and "1 successful" in html
-    assert "current build HEAD <code>dddddddddd</code>" in html  # the newest build, marked current by 0003
-    assert "1 run of older builds not counted" in html
+    page = re.sub(r"\s+", " ", html)
+    assert "<h2>machine old-box</h2>" in page and '<span class="count successful">1</span>' in page, page
+    # the newest build, marked current by 0003; the outdated run of the older build is not counted
+    assert '<code class="revision">dddddddddd</code></a> <span class="note">HEAD</span>' in page, page
+    assert "+1 older" in page, page
     assert migration_names() <= applied_migrations(tmp_path / "home")
 
 

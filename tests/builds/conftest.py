@@ -1,4 +1,4 @@
-"""Fixtures for the build tests: a throw-away store (as tests/harness/conftest.py), tiny C++ repositories,
+"""(The folder is `builds`, not `build`: pytest does not collect folders named build.) Fixtures for the build tests: a throw-away store (as tests/harness/conftest.py), tiny C++ repositories,
 and one ccache folder shared by the slow LIGGGHTS builds of a session."""
 import os
 import shutil
