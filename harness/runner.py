@@ -20,6 +20,7 @@ import time
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor
 from concurrent.futures import wait as wait_futures
 from dataclasses import dataclass, field
+from datetime import datetime, timezone
 from functools import lru_cache
 from pathlib import Path
 
@@ -57,6 +58,9 @@ class Task:
     depends_on: tuple | None = None
     dependency_folder: str | None = None
     lock: object = None                # held from submission until the record is stored
+    #: when this process chose to execute the run (UTC): a record finished after it was stored by another
+    #: process sharing the workspace, and the run is not executed again
+    planned: datetime = field(default_factory=lambda: datetime.now(timezone.utc))
 
 
 @dataclass
@@ -342,13 +346,15 @@ def _claim(task: Task, options: RunOptions, waiting: set, out) -> str:
             out.write(f"waiting for another harness process running {task.key[0]} {task.key[1]}/{task.key[2]} ...\n")
             out.flush()
         return "busy"
-    if task.key in waiting:
-        spec = task.spec
-        row = Run.objects.filter(machine__name=spec["machine"], build_id=spec["build"]["id"],
-                                 testcase__path=spec["testcase"], name=spec["run"],
-                                 testcase_hash=spec["testcase_hash"]).first()
+    # Another process may have run it since this one planned it: one that held the lock while this one
+    # waited, or one that claimed, ran and released it before this process got to the task at all.
+    spec = task.spec
+    row = Run.objects.filter(machine__name=spec["machine"], build_id=spec["build"]["id"],
+                             testcase__path=spec["testcase"], name=spec["run"],
+                             testcase_hash=spec["testcase_hash"]).first()
+    if row is not None and row.finished is not None:
         again = RunOptions(**{**options.__dict__, "rerun_all": False})
-        if row is not None and row.finished is not None and not _needs_run(row, again):
+        if row.finished >= task.planned or (task.key in waiting and not _needs_run(row, again)):
             task.lock.release()
             return "done"
     return "claimed"
