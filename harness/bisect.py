@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 from harness import gitrepo
 from harness.adapters.base import UserError
-from harness.builds import current_build
+from harness.builds import record_current_build
 from harness.compare import Comparison, compare_builds
 from harness.revisions import at_revision
 from harness.runner import RunOptions, run_targets
@@ -114,7 +114,7 @@ def _run(target, commit: str, options: RunOptions, say):
                                   definition_hash=pinned.definition_hash, status=Build.Status.FAILED).first()
     if failed is not None or any("build of target" in p for p in report.problems):
         return None
-    return current_build(pinned, options.machine)
+    return record_current_build(pinned, options.machine)
 
 
 def _build_error(target, commit: str, machine: str) -> str:

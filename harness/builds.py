@@ -3,7 +3,8 @@
 Builds are cached in ``<workspace>/builds/<target>/<commit>-<definition hash>/`` and count only once the
 recipe finished and the ``done`` marker is written (a crash mid-build leaves no half build that looks
 usable). The build log is kept as ``build.log`` and in the store. The current build of a target is the one
-of the commit its revision resolves to now (``current_build``); the results of its other builds are
+of the commit its revision resolves to now (``record_current_build`` records it,
+``current_build`` reads it); the results of its other builds are
 outdated (thesis 4.3.4) but kept, with their run folders.
 """
 from __future__ import annotations
@@ -145,23 +146,27 @@ def record_build_failure(target: TargetDefinition, build, machine_name: str, pat
                             missing=(BUILD_FAILED, (build.details or {}).get("error") or "build failed"))
 
 
-def current_build(target, machine_name: str):
-    """The current build of a target on a machine, or None when that commit is not built here.
-
-    With a definition (``TargetDefinition``) the revision is resolved now and the result recorded with
-    ``make_current``; with only a name (store-only targets, the dashboard) the recorded current build.
-    ``build``, ``run``, ``check``, ``status``, ``sweep``, ``list`` and the dashboard all ask this. A
-    revision given on the command line (``TARGET@REV``) names its build without making it current.
-    """
+def current_build(target_name: str, machine_name: str):
+    """The recorded current build of a target on a machine (complete), or None. Reads the store only: no
+    git command, nothing written - the dashboard and every reader of the store ask this."""
     from harness.models import Build
 
-    if isinstance(target, TargetDefinition):
-        build = find_build(target, machine_name)
-        if build is not None and not target.explicit_revision:
-            make_current(build)
-        return build
-    return Build.objects.filter(target__name=target, machine__name=machine_name, current=True,
+    return Build.objects.filter(target__name=target_name, machine__name=machine_name, current=True,
                                 status=Build.Status.COMPLETE).first()
+
+
+def record_current_build(target: TargetDefinition, machine_name: str):
+    """Resolve ``target``'s revision now and record the complete build of that commit as its current build
+    (``make_current``); returns it, or None when that commit is not built here (nothing recorded then).
+
+    ``build``, ``run``, ``check``, ``status``, ``sweep``, ``list`` and ``matrix`` call it before they read
+    the current build. A revision given on the command line (``TARGET@REV``) names its build without making
+    it current.
+    """
+    build = find_build(target, machine_name)
+    if build is not None and not target.explicit_revision:
+        make_current(build)
+    return build
 
 
 def build_target(target: TargetDefinition, machine_name: str, force: bool = False, log=None,
@@ -564,10 +569,3 @@ def _build_system(target: TargetDefinition, commit: str, folder: Path, context: 
 
 
 RECIPES = {"dem": _build_dem, "make": _build_make, "cmake": _build_cmake, "system": _build_system}
-
-
-def build_environment(build) -> dict:
-    """The process environment to run a build's executable in."""
-    env = dict(os.environ)
-    env.update(build.environment or {})
-    return env

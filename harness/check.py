@@ -2,8 +2,8 @@
 
 Which runs get a verdict is ``harness.coverage``'s one rule: every selected run configuration of the
 target's current build (broken ones failed with reason config, runs not executed failures of the gate unless
-``allow_missing``). For every run of the target's current build (``harness.builds.current_build``: the build of the commit the
-revision resolves to now) at the test case content of now, the reference run is chosen by
+``allow_missing``). For every run of the target's current build
+(``harness.builds.record_current_build``: the build of the commit the revision resolves to now) at the test case content of now, the reference run is chosen by
 ``harness.rules.find_reference_run``: same test case, run name and content, by the reference target. A run
 whose test case changed since it ran is stale (a failure: run it again); a reference run of other content is
 never scored against, and is reported as stale. Results go to ``ConsistencyResult`` rows and
@@ -20,7 +20,7 @@ from pathlib import Path
 from harness import junit
 from harness.adapters.base import UserError
 from harness.junit import provenance  # noqa: F401  (what a verdict was computed on; the dashboard shows it)
-from harness.builds import current_build, failed_build, failure_message, record_build_failure
+from harness.builds import failed_build, failure_message, record_build_failure, record_current_build
 from harness.coverage import covered_runs, earlier_content_run, record_selection, selected
 from harness.consistency import FAILING_LEVELS, QuantityResult, compare_runs, run_level
 from harness.rules import find_reference_run, override_keys, stale_reference
@@ -166,7 +166,7 @@ def check_targets(targets, machine: str, pattern: str | None = None, allow_missi
     are failed with reason build_failed, the build is in ``failed_builds`` and a problem."""
     report = CheckReport()
     for target in targets:
-        build = current_build(target, machine)
+        build = record_current_build(target, machine)
         failed = failed_build(target, machine) if build is None else None
         if failed is not None:
             # the revision does not build: its selected runs are failures (build_failed), and the build is

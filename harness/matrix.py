@@ -9,7 +9,8 @@ reference B) and each quantity q the consistency C_q(A | B) after thesis eqs. 4.
     eps = 0.1 (max_k x_B,k - min_k x_B,k) / 2,   C = 1 - max_k 0.1 |x_A,k - x_B,k| / eps
 
 C is not symmetric (eps comes from the reference), so both orders are given. Runs are the successful ones of
-each target's current build on the machine (``harness.builds.current_build``), read from the store.
+each target's current build on the machine, which the caller passes (``harness.builds``: the CLI records it
+from the revision, the dashboard reads the recorded one).
 
 The result is a list of ``Cell`` (test case, run, quantity, code, reference, C, level, first step outside
 the band) that ``format_matrix`` prints as one square table per test case run and quantity, and
@@ -62,36 +63,31 @@ class Matrix:
         return worst
 
 
-def _successful_runs(target, machine: str, pattern: str | None):
-    from harness.builds import current_build
+def _successful_runs(build, machine: str, pattern: str | None) -> dict:
     from harness.models import Run
     from harness.rules import SUCCESS_STATES
     from harness.testcases import matches
 
-    build = current_build(target, machine)
-    if build is None:
-        return None, {}
     runs = (Run.objects.filter(build=build, machine__name=machine, replaced=False, state__in=SUCCESS_STATES)
             .select_related("testcase", "build").prefetch_related("series"))
-    return build, {(r.testcase.path, r.name, r.testcase_hash): r for r in runs
-                   if matches(pattern, r.testcase.path, r.name)}
+    return {(r.testcase.path, r.name, r.testcase_hash): r for r in runs if matches(pattern, r.testcase.path, r.name)}
 
 
-def build_matrix(targets, machine: str, pattern: str | None = None,
+def build_matrix(builds: dict, machine: str, pattern: str | None = None,
                  quantities: tuple[str, ...] = QUANTITIES) -> Matrix:
-    """C of every target's run against every other target's run of the same test case content."""
+    """C of every target's run against every other target's run of the same test case content; ``builds``
+    maps each target name, in the matrix's order, to its current build on ``machine`` (or None)."""
     from harness.check import series_of
     from harness.consistency import compare_runs
 
-    matrix = Matrix([t.name for t in targets])
+    matrix = Matrix(list(builds))
     found = {}
-    for target in targets:
-        build, runs = _successful_runs(target, machine, pattern)
+    for name, build in builds.items():
         if build is None:
-            matrix.problems.append(f"target {target.name!r} has no build of its revision on machine {machine!r} "
-                                   f"(run 'harness run {target.name}')")
+            matrix.problems.append(f"target {name!r} has no build of its revision on machine {machine!r} "
+                                   f"(run 'harness run {name}')")
             continue
-        found[target.name] = runs
+        found[name] = _successful_runs(build, machine, pattern)
     keys = sorted({key for runs in found.values() for key in runs})
     for testcase, run_name, content in keys:
         present = [name for name in matrix.targets if (testcase, run_name, content) in found.get(name, {})]

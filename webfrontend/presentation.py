@@ -367,16 +367,6 @@ def expectation_rows(files) -> list[dict]:
     return sorted(rows, key=lambda r: r["ok"])
 
 
-class StoreTarget(str):
-    """A target named by the store alone, for harness.matrix.build_matrix: it reads ``.name`` and passes the
-    target on to harness.builds.current_build, which takes a bare name for the recorded current build (no git
-    command in a request, no build made current by looking at a page)."""
-
-    @property
-    def name(self) -> str:
-        return str(self)
-
-
 def matrix_blocks(matrix, run_ids: dict) -> list[dict]:
     """``harness matrix``'s tables (harness.matrix.format_matrix) as rows of cells: one square table per test
     case run and quantity (rows the scored code, columns the reference), the particle count only where a cell

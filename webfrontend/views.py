@@ -515,8 +515,8 @@ def _matrix(request):
                      .values_list("name", flat=True))
     if machine is None or len(names) < 2:
         return machine, names, pattern, None
-    return machine, names, pattern, build_matrix([presentation.StoreTarget(n) for n in names], machine.name,
-                                                 pattern)
+    builds = {name: current_build(name, machine.name) for name in names}
+    return machine, names, pattern, build_matrix(builds, machine.name, pattern)
 
 
 def matrix(request):

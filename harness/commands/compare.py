@@ -39,7 +39,7 @@ def run(args) -> int:
     from harness.store import setup_store
 
     setup_store()
-    from harness.builds import current_build
+    from harness.builds import record_current_build
     from harness.compare import compare_builds, markdown, rows, summary
     from harness.runner import RunOptions, format_table, run_targets
     from harness.runrecord import finite
@@ -52,7 +52,7 @@ def run(args) -> int:
             print(f"harness: {problem}", file=sys.stderr)
     builds = []
     for argument, target in ((args.a, target_a), (args.b, target_b)):
-        build = current_build(target, args.machine)
+        build = record_current_build(target, args.machine)
         if build is None:
             raise UserError(f"{argument}: no build of {target.revision[:12]} on machine {args.machine!r} "
                             f"(run 'harness run {argument}')")

@@ -24,7 +24,7 @@ def run(args) -> int:
 
     setup_store()
     from harness.adapters.base import UserError
-    from harness.builds import current_build
+    from harness.builds import record_current_build
     from harness.models import Run, Target
     from harness.runner import format_table
     from harness.runrecord import STATES, finite
@@ -50,7 +50,7 @@ def run(args) -> int:
         # the same rule as check and status: the build of the commit the revision resolves to now
         definitions, _problems = load_targets(args.targets_dir)
         for definition in definitions.values():
-            current_build(definition, args.machine)  # resolves the revision now and records it
+            record_current_build(definition, args.machine)
         runs = runs.filter(build__current=True, replaced=False)
     matched = [r for r in runs if matches(args.pattern, r.testcase.path, r.name)]
     selected = [r for r in matched if not args.quiet or r.state == "failed" or r.consistency == "inconsistent"]

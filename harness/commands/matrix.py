@@ -25,6 +25,7 @@ def configure(parser):
 
 def run(args) -> int:
     from harness.adapters.base import UserError
+    from harness.builds import record_current_build
     from harness.matrix import _c, build_matrix, format_matrix, write_csv, write_json
     from harness.store import setup_store
     from harness.targets import select_targets
@@ -36,7 +37,8 @@ def run(args) -> int:
         targets = [t for t in targets if t.name.endswith("-crosscode")]
     if len(targets) < 2:
         raise UserError("the matrix needs at least two targets (name them, or define *-crosscode targets)")
-    matrix = build_matrix(targets, args.machine, args.pattern)
+    matrix = build_matrix({t.name: record_current_build(t, args.machine) for t in targets}, args.machine,
+                          args.pattern)
     for problem in problems + matrix.problems:
         print(f"harness: {problem}", file=sys.stderr)
     if not matrix.cells:

@@ -29,7 +29,7 @@ def run(args) -> int:
 
     setup_store()
     from harness import scaling
-    from harness.builds import current_build
+    from harness.builds import record_current_build
     from harness.models import Run
     from harness.revisions import expand
     from harness.runner import RunOptions, format_table, run_targets
@@ -51,7 +51,7 @@ def run(args) -> int:
     found = 0
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     for target in targets:
-        build = current_build(target, args.machine)
+        build = record_current_build(target, args.machine)
         if build is None:
             continue
         runs = Run.objects.filter(build=build, machine__name=args.machine, replaced=False)

@@ -46,7 +46,7 @@ def run(args) -> int:
     setup_store()
     from django.db.models import Count
 
-    from harness.builds import current_build
+    from harness.builds import current_build, record_current_build
     from harness.models import Run, Target
     from harness.runner import format_table
     from harness.targets import load_targets
@@ -61,7 +61,8 @@ def run(args) -> int:
     for target in targets:
         # a target with a definition file: its revision resolved now; an imported one: as recorded
         definition = definitions.get(target.name)
-        build = current_build(definition or target.name, args.machine)
+        build = (record_current_build(definition, args.machine) if definition is not None
+                 else current_build(target.name, args.machine))
         runs = Run.objects.filter(target=target, machine__name=args.machine)
         counts = dict(runs.filter(build=build, replaced=False).values_list("state").annotate(n=Count("id"))
                       .values_list("state", "n")) if build else {}

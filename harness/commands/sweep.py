@@ -22,7 +22,7 @@ def run(args) -> int:
 
     setup_store()
     from harness import sweep as sw
-    from harness.builds import current_build
+    from harness.builds import record_current_build
     from harness.models import Run
     from harness.workspace import workspace
     from harness.runner import RunOptions, format_table, run_targets
@@ -41,7 +41,7 @@ def run(args) -> int:
         failed_runs = len(report.failed)
     found = 0
     for target in targets:
-        build = current_build(target, args.machine)
+        build = record_current_build(target, args.machine)
         if build is None:
             continue
         runs = Run.objects.filter(build=build, machine__name=args.machine, replaced=False)
