@@ -4,7 +4,7 @@ Which runs get a verdict is ``harness.coverage``'s one rule: every selected run 
 target's current build (broken ones failed with reason config, runs not executed failures of the gate unless
 ``allow_missing``). For every run of the target's current build
 (``harness.builds.record_current_build``: the build of the commit the revision resolves to now) at the test case content of now, the reference run is chosen by
-``harness.rules.find_reference_run``: same test case, run name and content, by the reference target. A run
+``RunQuerySet.find_reference``: same test case, run name and content, by the reference target. A run
 whose test case changed since it ran is stale (a failure: run it again); a reference run of other content is
 never scored against, and is reported as stale. Results go to ``ConsistencyResult`` rows and
 ``Run.consistency`` / ``consistency_min``; the run's state becomes version-consistency-checked.
@@ -22,8 +22,8 @@ from harness.adapters.base import UserError
 from harness.junit import provenance  # noqa: F401  (what a verdict was computed on; the dashboard shows it)
 from harness.builds import failed_build, failure_message, record_build_failure, record_current_build
 from harness.coverage import covered_runs, earlier_content_run, record_selection, selected
-from harness.consistency import FAILING_LEVELS, QuantityResult, compare_runs, run_level
-from harness.rules import find_reference_run, override_keys, stale_reference
+from harness.consistency import QuantityResult, compare_runs, run_level
+from harness.rules import WHOLE_RUN, gate_status, override_for, quantity_fails
 
 
 @dataclass
@@ -58,7 +58,8 @@ def series_of(run) -> list[dict]:
 
 
 def _overrides(run) -> dict[str, str]:
-    """quantity ('' = whole run) -> 'user: reason' of the reviewer's overrides."""
+    """override quantity ('' = whole run, ``harness.rules.WHOLE_RUN``) -> 'user: reason' of the reviewer's
+    overrides."""
     out = {}
     for override in run.overrides.all():  # prefetched with their users by the callers that list many runs
         who = override.user.get_username() if override.user else "someone"
@@ -75,7 +76,7 @@ def check_run(run, reference_target: str | None) -> list[QuantityResult]:
 
     if run.state not in ("post_processed", "consistency_checked") or not reference_target:
         return []
-    reference = find_reference_run(run, reference_target)
+    reference = Run.objects.find_reference(run, reference_target)
     if reference is None:
         run.consistency, run.consistency_min, run.reference_run = Run.Consistency.NO_REFERENCE, None, None
         run.state = Run.State.POST_PROCESSED
@@ -97,36 +98,19 @@ def check_run(run, reference_target: str | None) -> list[QuantityResult]:
     return results
 
 
-def gate_status(state: str, failure_accepted: bool, open_inconsistency: bool, allow_missing: bool = False) -> str:
-    """The gate's rule for one covered run: "passed", "failed" or "skipped" (shown as "not run").
-
-    A failed run fails unless a reviewer accepted its failure (``failure_accepted``); a run of the covered
-    build that was not executed fails unless ``allow_missing``, then it is skipped, as is an outdated run;
-    every other run passes unless it has an inconsistency no reviewer accepted (``open_inconsistency``).
-    The one home of this rule: ``verdict_of`` (the CLI, ``harness ci``, both JUnit writers) and the
-    dashboard's counts (``harness.queries.Tally``, from aggregated columns) call it."""
-    if state == "failed":
-        return "passed" if failure_accepted else "failed"
-    if state == "not_executed":
-        return "skipped" if allow_missing else "failed"
-    if state == "outdated":
-        return "skipped"
-    return "failed" if open_inconsistency else "passed"
-
-
 def verdict_of(run, results: list[QuantityResult], has_reference_target: bool,
                allow_missing: bool = False) -> RunVerdict:
-    """The verdict on one covered run (``harness.coverage``), its status by ``gate_status``, with the message
-    that says why: the failure, the stale or not executed run (kind ``stale`` when a run of earlier test
+    """The verdict on one covered run (``harness.coverage``), its status by ``harness.rules.gate_status`` (a
+    reviewer's override honoured by ``harness.rules.override_for``, as in ``harness.rules.is_accepted``), with
+    the message that says why: the failure, the stale or not executed run (kind ``stale`` when a run of earlier test
     case content exists), the inconsistent quantities, and what reviewers accepted."""
     overrides = _overrides(run)
-    whole = overrides.get("")
+    whole = overrides.get(WHOLE_RUN)
     bad, overridden = [], []
     for r in results if run.state not in ("failed", "not_executed", "outdated") else ():
-        if r.level not in FAILING_LEVELS:
+        if not quantity_fails(r.level):
             continue
-        accepted = whole or next((overrides[k] for k in override_keys(r.series_name, r.quantity)
-                                  if k in overrides), None)
+        accepted = override_for(overrides, r.series_name, r.quantity)
         label = f"{r.series_name}:{r.quantity}" if r.series_kind != "thermo" else r.quantity
         if accepted:
             overridden.append(f"{label} ({r.level}) accepted by {accepted}")
@@ -164,6 +148,8 @@ def check_targets(targets, machine: str, pattern: str | None = None, allow_missi
     with the selection (``harness.coverage.record_selection``), then every covered run gets a verdict -
     broken configurations and runs not executed included. A target whose revision does not build: its runs
     are failed with reason build_failed, the build is in ``failed_builds`` and a problem."""
+    from harness.models import Run  # the store's models load once Django is set up (harness.store)
+
     report = CheckReport()
     for target in targets:
         build = record_current_build(target, machine)
@@ -193,7 +179,7 @@ def check_targets(targets, machine: str, pattern: str | None = None, allow_missi
         for run in runs:
             results = check_run(run, target.reference)
             if target.reference and run.consistency == "no_reference":
-                stale = stale_reference(run, target.reference)
+                stale = Run.objects.stale_reference(run, target.reference)
                 if stale is not None:
                     report.stale_references.append(
                         f"{target.reference} {run.testcase.path}/{run.name} at {stale.build.commit[:10]} ran test "

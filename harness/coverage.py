@@ -117,24 +117,16 @@ def record_selection(target, build, machine: str, pattern: str | None = None, wo
     return chosen
 
 
-def covered(runs, build=None):
-    """The runs of ``runs`` (a Run QuerySet) a verdict covers: live rows (not replaced by other content) of
-    each target's current build, or of ``build``. The overview, the dashboard's lists and ``covered_runs``
-    filter with it."""
-    runs = runs.filter(replaced=False)
-    return runs.filter(build=build) if build is not None else runs.filter(build__current=True)
-
-
 def covered_runs(machine_id: int | None = None, target_id: int | None = None, build=None, machine: str | None = None):
-    """The runs a verdict covers, in report order: the live rows (not replaced by other content) of each
-    target's current build - or of ``build`` - on each machine (optionally one machine and target). After
-    ``record_selection`` these are exactly the selected run configurations. ``harness check``, ``ci``, both
+    """The runs a verdict covers (``RunQuerySet.current``), in report order: the live rows (not replaced by
+    other content) of each target's current build - or of ``build`` - on each machine (optionally one machine
+    and target). After ``record_selection`` these are exactly the selected run configurations. ``harness check``, ``ci``, both
     JUnit writers and the dashboard's overview and pages read this set."""
     from django.db.models import Prefetch
 
     from harness.models import ConsistencyResult, Override, Run
 
-    runs = covered(Run.objects.all(), build)
+    runs = Run.objects.current(build)
     if machine is not None:
         runs = runs.filter(machine__name=machine)
     if machine_id is not None:

@@ -7,7 +7,7 @@ Artifacts stay on disk in the run folder; the store keeps what lists, plots and 
 from django.conf import settings
 from django.db import models
 
-from harness.queries import BuildQuerySet, RunQuerySet, SeriesQuerySet
+from harness.queries import BuildQuerySet, RunQuerySet
 
 
 class Machine(models.Model):
@@ -204,8 +204,6 @@ class Series(models.Model):
     x_column = models.CharField(max_length=200, blank=True, help_text="abscissa column (thermo: step)")
     columns = models.JSONField(default=dict)
     meta = models.JSONField(default=dict, help_text="units, title, axis labels as declared")
-
-    objects = SeriesQuerySet.as_manager()
 
     class Meta:
         constraints = [models.UniqueConstraint(fields=["run", "kind", "name"], name="unique_series")]

@@ -9,11 +9,24 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import math
+import statistics
+from types import SimpleNamespace
+
+from django.apps import apps
 from django.db import models
-from django.db.models import Count, Exists, Max, Min, OuterRef, Q, Sum, Value
+from django.db.models import (Case, Count, Exists, IntegerField, Max, Min, OuterRef, Prefetch, Q, Sum, Value,
+                              When)
 from django.db.models.functions import Concat
 
-from harness.rules import CONSISTENT_LEVELS, OVERRIDE_SEPARATORS, SUCCESS_STATES, find_reference_run
+from harness.rules import (CONSISTENT_LEVELS, OVERRIDE_SEPARATORS, SUCCESS_STATES, WHOLE_RUN, effective_state,
+                           gate_status, is_failing, relative_spread)
+
+
+def _model(name: str):
+    """A model of the store by name: harness.models imports this module for its QuerySets, so this module
+    looks the models up in Django's app registry instead of importing them (no import circle)."""
+    return apps.get_model("harness", name)
 
 #: outcome categories of the two overview modes, in display order
 STATE_CATEGORIES = ("successful", "failed", "not_executed", "outdated")
@@ -24,9 +37,7 @@ VERDICT_CATEGORIES = ("passed", "failed", "not_run")
 
 def verdict_category(state: str, consistency: str, accepted: bool) -> str:
     """The verdict category of a run from the columns an aggregation keeps (``accepted``: a reviewer
-    overruled it, ``accepted_expression``), by the gate's one rule ``harness.check.gate_status``."""
-    from harness.check import gate_status  # harness.check reads the store: imported when first counted
-
+    overruled it, ``accepted_expression``), by the gate's one rule ``harness.rules.gate_status``."""
     status = gate_status(state, failure_accepted=accepted,
                          open_inconsistency=consistency == "inconsistent" and not accepted)
     return "not_run" if status == "skipped" else status
@@ -51,14 +62,14 @@ def consistency_category(consistency: str, accepted: bool) -> str:
 
 
 def accepted_expression():
-    """SQL expression: the run was overruled as a whole, or every bad quantity has its own override.
+    """SQL expression of ``harness.rules.is_accepted``: a failed run was overruled as a whole; an inconsistent
+    run as a whole, or every bad quantity has its own override.
 
     A bad quantity is a ConsistencyResult whose level is neither perfect nor good (inconsistent, length
-    mismatch, missing). Failed runs can only be accepted as a whole (quantity blank).
+    mismatch, missing: ``harness.rules.quantity_fails``).
     """
-    from harness.models import ConsistencyResult, Override
-
-    whole_run = Exists(Override.objects.filter(run=OuterRef("pk"), quantity=""))
+    ConsistencyResult, Override = _model("ConsistencyResult"), _model("Override")
+    whole_run = Exists(Override.objects.filter(run=OuterRef("pk"), quantity=WHOLE_RUN))
     # the keys `harness check` honours (harness.rules.override_keys): "ke", "torqueZ:torque", "torqueZ.torque"
     named = Q(quantity=OuterRef("quantity"))
     for separator in OVERRIDE_SEPARATORS:
@@ -66,12 +77,12 @@ def accepted_expression():
     quantity_override = Override.objects.filter(run=OuterRef("run_id")).filter(named)
     unaccepted_bad = ConsistencyResult.objects.filter(run=OuterRef("pk")).exclude(
         level__in=CONSISTENT_LEVELS).exclude(Exists(quantity_override))
-    all_bad_overruled = Q(consistency="inconsistent") & ~Exists(unaccepted_bad)
-    overruled = models.Case(models.When(whole_run | all_bad_overruled, then=True), default=False,
-                            output_field=models.BooleanField())
+    overruled = Case(When(whole_run | ~Exists(unaccepted_bad), then=True), default=False,
+                     output_field=models.BooleanField())
+    whole = Case(When(whole_run, then=True), default=False, output_field=models.BooleanField())
     # only failed or inconsistent runs can be accepted: the subqueries run for those alone (CASE is lazy)
-    return models.Case(models.When(Q(state="failed") | Q(consistency="inconsistent"), then=overruled),
-                       default=False, output_field=models.BooleanField())
+    return Case(When(state="failed", then=whole), When(consistency="inconsistent", then=overruled),
+                default=False, output_field=models.BooleanField())
 
 
 @dataclass
@@ -181,8 +192,7 @@ def fold_into_children(rows, prefix: str) -> tuple[list[Tally], Tally]:
 def previous_builds(builds) -> dict:
     """For each of ``builds``: the build of its target on its machine just before it by commit date (then
     start), or None - the order of history (``RunQuerySet.history``). One query."""
-    from harness.models import Build
-
+    Build = _model("Build")
     builds = list(builds)
     order = ("committed_at", "started", "id")
     earlier: dict = {}
@@ -210,20 +220,14 @@ def stepping_changes(builds) -> dict:
     The runs of both builds are paired by test case and run name (the shortest stepping time of each, in s);
     the change is the geometric mean of the ratios now / before over the pairs, so that a 5 ms test counts
     as much as a 5 s one; ``noise`` is the median over the pairs of the larger measured spread of repeated
-    stepping times (harness.regressions.relative_spread, ``harness run --repeat``; 0 without repeats).
+    stepping times (harness.rules.relative_spread, ``harness run --repeat``; 0 without repeats).
     Returns ``{build id: {"ratio", "pairs", "previous" (Build), "noise"}}`` for the builds with at least one
     pair. Two queries.
     """
-    import math
-    import statistics
-
-    from harness.models import Run
-
+    Run = _model("Run")
     previous = {pk: b for pk, b in previous_builds(builds).items() if b is not None}
     if not previous:
         return {}
-    from harness.regressions import relative_spread
-
     times: dict = {}
     for build_id, testcase_id, name, stepping, timing in (
             Run.objects.filter(build_id__in=set(previous) | {b.pk for b in previous.values()}, replaced=False,
@@ -260,7 +264,26 @@ class RunQuerySet(models.QuerySet):
     """Runs, with the aggregations the dashboard lists need."""
 
     def with_accepted(self):
+        """The runs, each with ``accepted``: a reviewer overruled it (``accepted_expression``)."""
         return self.annotate(accepted=accepted_expression())
+
+    def accepted(self):
+        """The runs a reviewer overruled (``harness.rules.is_accepted``)."""
+        return self.with_accepted().filter(accepted=True)
+
+    def failing(self):
+        """The failing runs (``harness.rules.is_failing``): failed for their own build or inconsistent, and not
+        accepted by a reviewer. ``harness list -q`` lists them."""
+        failed = Q(state="failed") | (Q(state="outdated", replaced=False) & ~Q(failure_reason=""))
+        return self.with_accepted().filter(failed | Q(consistency="inconsistent"), accepted=False)
+
+    def current(self, build=None):
+        """The runs a verdict covers: the live rows (not replaced by a newer run of other content) of each
+        target's current build, or of ``build``. ``harness.coverage`` keeps these rows exactly the selected
+        run configurations; ``harness check``, ``ci``, ``list``, both JUnit writers and the dashboard's
+        overview and lists read them."""
+        runs = self.filter(replaced=False)
+        return runs.filter(build=build) if build is not None else runs.filter(build__current=True)
 
     def below(self, folder: str):
         """Runs of test cases in ``folder`` or below it, or of the test case with that path."""
@@ -347,9 +370,7 @@ class RunQuerySet(models.QuerySet):
 
     def detail(self):
         """One run with everything its page shows, in a fixed number of queries."""
-        from django.db.models import Prefetch
-        from harness.models import ConsistencyResult, Override
-
+        ConsistencyResult, Override = _model("ConsistencyResult"), _model("Override")
         return (self.select_related("build", "target", "target__reference", "machine", "testcase",
                                     "reference_run", "reference_run__build", "reference_run__target")
                 .with_accepted()
@@ -368,26 +389,43 @@ class RunQuerySet(models.QuerySet):
         return (qs.select_related("build", "machine").with_accepted()
                 .order_by("build__committed_at", "build__started", "build_id", "name"))
 
+    def reference_candidates(self, run, reference_target: str):
+        """Successful runs of ``reference_target`` that may serve as ``run``'s reference, best first (thesis
+        4.4): same test case, run name and test case content; the reference target's current build on this
+        machine first, then its newest runs on this machine, then on any machine (imported results)."""
+        return (self.filter(target__name=reference_target, testcase_id=run.testcase_id, name=run.name,
+                            testcase_hash=run.testcase_hash, state__in=SUCCESS_STATES)
+                .annotate(preference=Case(
+                    When(machine_id=run.machine_id, build__current=True, then=Value(0)),
+                    When(machine_id=run.machine_id, then=Value(1)), default=Value(2),
+                    output_field=IntegerField()))
+                .order_by("preference", "-finished", "-id"))
+
+    def find_reference(self, run, reference_target: str | None):
+        """The reference run of ``run`` by ``reference_target`` (None: no target, or no run of this content)."""
+        if not reference_target:
+            return None
+        return self.reference_candidates(run, reference_target).first()
+
+    def stale_reference(self, run, reference_target: str):
+        """A successful reference run of the same test case and run name but other content (or None).
+
+        Used to say why there is no reference run: the reference ran an earlier (or later) version of the
+        test case, and ``harness run`` of the reference target refreshes it.
+        """
+        return (self.filter(target__name=reference_target, testcase_id=run.testcase_id, name=run.name,
+                            state__in=SUCCESS_STATES).exclude(testcase_hash=run.testcase_hash)
+                .select_related("build").order_by("-finished", "-id").first())
 
     def reference_for(self, run):
         """The reference run of ``run``: the one its check scored against, else the one ``harness check``
-        would choose (harness.rules.find_reference_run); None without a reference target."""
+        would choose (``find_reference``); None without a reference target."""
         if run.reference_run_id:
             return self.detail().filter(pk=run.reference_run_id).first()
         if not run.target.reference_id:
             return None
-        found = find_reference_run(run, run.target.reference.name)
+        found = self.find_reference(run, run.target.reference.name)
         return self.detail().filter(pk=found.pk).first() if found is not None else None
-
-    def selected(self, ids):
-        """Runs by id in the order asked (duplicates and unknown ids dropped), ready for a comparison."""
-        runs = {r.pk: r for r in self.detail().filter(pk__in=ids)}
-        seen, out = set(), []
-        for i in ids:
-            if i in runs and i not in seen:
-                seen.add(i)
-                out.append(runs[i])
-        return out
 
     def matrix_runs(self, target_names, machine_name: str) -> dict:
         """Ids of the runs harness.matrix scores: the successful, not replaced runs of each target's current
@@ -404,23 +442,16 @@ class RunQuerySet(models.QuerySet):
 
         The history is that of ``history``: the builds of the target on the machine that ran the run
         configuration, by commit date; per build its run (the one no newer content replaced, else the newest).
-        A run counts as bad when it failed (``harness.rules.effective_state``) or is inconsistent, unless a
-        reviewer overruled it; a successful, consistent (or overruled) run interrupts; a run not executed is
+        A run counts as bad when it is failing (``harness.rules.is_failing``: failed for its own build or
+        inconsistent, not overruled by a reviewer); a successful, consistent (or overruled) run interrupts; a run not executed is
         no evidence either way and is passed over. Returns ``{run id: {"commit", "committed_at", "build_id",
         "run_id", "builds" (bad builds in the streak), "first" (the streak starts at the first recorded
         build)}}``; one query for any number of runs, none when no run is bad.
         """
-        from types import SimpleNamespace
-
-        from harness.rules import effective_state
-
         def bad(r) -> bool | None:
-            if r.accepted:
-                return False
-            state = effective_state(r)
-            if state == "failed" or r.consistency == "inconsistent":
+            if is_failing(r):
                 return True
-            return None if state in ("not_executed", "outdated") else False
+            return None if not r.accepted and effective_state(r) in ("not_executed", "outdated") else False
 
         wanted = [r for r in runs if bad(r)]
         if not wanted:
@@ -456,23 +487,4 @@ class RunQuerySet(models.QuerySet):
             out[run.pk] = {"commit": first.build__commit, "committed_at": first.build__committed_at,
                            "build_id": first.build_id, "run_id": first.pk, "builds": count,
                            "first": all(bad(r) is None for r in history[:start])}
-        return out
-
-    def junit(self, machine_id=None, target_id=None):
-        """Runs for a JUnit report (outdated results of older builds left out), optionally of one machine
-        and target."""
-        qs = self.exclude(state="outdated")
-        if machine_id:
-            qs = qs.filter(machine_id=machine_id)
-        if target_id:
-            qs = qs.filter(target_id=target_id)
-        return qs.listing().order_by("machine__name", "target__name", "testcase__path", "name", "-id")
-
-
-class SeriesQuerySet(models.QuerySet):
-    def shared_by(self, runs) -> dict:
-        """Series that several runs have in common: ``{(kind, name): {run_id: Series}}`` (one query)."""
-        out: dict = {}
-        for series in self.filter(run__in=runs).order_by("kind", "name"):
-            out.setdefault((series.kind, series.name), {})[series.run_id] = series
         return out

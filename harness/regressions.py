@@ -17,7 +17,7 @@ import statistics
 from dataclasses import dataclass, field
 
 from harness.compare import scored, attach_series, compare_pair, run_rows
-from harness.rules import SUCCESS_STATES, effective_state
+from harness.rules import SUCCESS_STATES, effective_state, relative_spread
 
 
 @dataclass
@@ -36,15 +36,6 @@ class History:
     run: str
     points: list = field(default_factory=list)   # [(commit, committed_at, stepping_time, wall_time, C, state)]
     changes: list[Change] = field(default_factory=list)
-
-
-def relative_spread(timing) -> float:
-    """The measured noise of a run's stepping time: (max - min) / median of its repeated stepping times
-    (``timing["stepping_repeats"]``, ``harness run --repeat N``); 0 without repeats."""
-    repeats = [t for t in ((timing or {}).get("stepping_repeats") or []) if isinstance(t, (int, float)) and t > 0]
-    if len(repeats) < 2:
-        return 0.0
-    return (max(repeats) - min(repeats)) / statistics.median(repeats)
 
 
 def speed_changes(times: list[float | None], k: float = 3.0, window: int = 5, min_change: float = 0.1,

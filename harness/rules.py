@@ -1,26 +1,83 @@
 """The rules the CLI and the dashboard share, each in one place so that they cannot disagree.
 
+Pure predicates on a run's columns (nothing here reads the store, so every layer may import it):
+
 - which run states count as a successful execution (thesis 4.3.4);
 - which consistency levels pass (thesis 4.4.1);
-- which run is the reference run of a run (thesis 4.4: same test case, same run name, same test case
-  content, by the reference target - its current build first);
 - how a reviewer's override is honoured (whole run, or one quantity named ``q``, ``series:q`` or
-  ``series.q``);
-- which state a run gets back when its build becomes current again.
+  ``series.q``) and when a run counts as accepted (``is_accepted``; its SQL form is
+  ``harness.queries.accepted_expression``, and tests/web/test_rules_agree.py checks that both agree);
+- the gate: what ``harness check`` says of a covered run (``gate_status``);
+- when a run is failing (``is_failing``; SQL form ``RunQuerySet.failing``): what ``harness list -q`` lists,
+  what starts a "failing since" streak and what fails ``harness check`` besides the runs not executed;
+- which state a run gets back when its build becomes current again;
+- the measured noise of a run's stepping time (``relative_spread``), read by the history and the overview.
+
+The store-side halves - the QuerySet methods ``current()``, ``failing()``, ``accepted()`` and the choice of a
+reference run - are in ``harness.queries``.
 """
 from __future__ import annotations
 
+import statistics
+from collections.abc import Iterable, Mapping
+
 #: run states whose execution succeeded (thesis 4.3.4: executed, post-processed, checked)
 SUCCESS_STATES = ("executed", "post_processed", "consistency_checked")
-#: consistency levels that pass (thesis 4.4.1: perfect C >= 0.95, good C >= 0.9)
+#: consistency levels that pass (thesis 4.4.1: perfect C >= 0.95, good C >= 0.9); every other level of a
+#: quantity (inconsistent, length mismatch, missing) fails it
 CONSISTENT_LEVELS = ("perfect", "good")
 #: how an override may name a quantity of a series besides its bare name: ``series:q`` and ``series.q``
 OVERRIDE_SEPARATORS = (":", ".")
+#: the override quantity that accepts a whole run
+WHOLE_RUN = ""
 
 
 def override_keys(series_name: str, quantity: str) -> tuple[str, ...]:
     """The override quantities that accept ``quantity`` of ``series_name`` (besides a whole-run override)."""
     return (quantity, *(f"{series_name}{sep}{quantity}" for sep in OVERRIDE_SEPARATORS))
+
+
+def quantity_fails(level: str) -> bool:
+    """Whether a quantity's consistency level fails it (anything but perfect or good)."""
+    return level not in CONSISTENT_LEVELS
+
+
+def override_for(overrides: Mapping, series_name: str, quantity: str):
+    """The value of the override in ``overrides`` (keyed by override quantity) that accepts ``quantity`` of
+    ``series_name``: a whole-run override first, then one naming the quantity; None when none does."""
+    if WHOLE_RUN in overrides:
+        return overrides[WHOLE_RUN]
+    return next((overrides[k] for k in override_keys(series_name, quantity) if k in overrides), None)
+
+
+def is_accepted(state: str, consistency: str, overrides: Mapping, results: Iterable) -> bool:
+    """Whether a reviewer overruled a run: a failed run by a whole-run override only; an inconsistent run by
+    a whole-run override or by an override for each of its failing quantities. ``overrides`` is keyed by
+    override quantity, ``results`` are (series name, quantity, level) of the run's ConsistencyResult rows.
+    The SQL of the same rule is ``harness.queries.accepted_expression``."""
+    if state == "failed":
+        return WHOLE_RUN in overrides
+    if consistency != "inconsistent":
+        return False
+    return all(override_for(overrides, series, quantity) is not None
+               for series, quantity, level in results if quantity_fails(level))
+
+
+def gate_status(state: str, failure_accepted: bool, open_inconsistency: bool, allow_missing: bool = False) -> str:
+    """The gate's rule for one covered run: "passed", "failed" or "skipped" (shown as "not run").
+
+    A failed run fails unless a reviewer accepted its failure (``failure_accepted``); a run of the covered
+    build that was not executed fails unless ``allow_missing``, then it is skipped, as is an outdated run;
+    every other run passes unless it has an inconsistency no reviewer accepted (``open_inconsistency``).
+    ``harness.check.verdict_of`` (the CLI, ``harness ci``, both JUnit writers) and the dashboard's counts
+    (``harness.queries.Tally``, from aggregated columns) call it."""
+    if state == "failed":
+        return "passed" if failure_accepted else "failed"
+    if state == "not_executed":
+        return "skipped" if allow_missing else "failed"
+    if state == "outdated":
+        return "skipped"
+    return "failed" if open_inconsistency else "passed"
 
 
 def restored_state(run) -> str:
@@ -40,40 +97,20 @@ def effective_state(run) -> str:
     return run.state
 
 
-def reference_candidates(run, reference_target: str):
-    """Successful runs of ``reference_target`` that may serve as ``run``'s reference, best first.
-
-    Same test case, run name and test case content; the reference target's current build on this machine
-    first, then its newest runs on this machine, then on any machine (imported results).
-    """
-    from django.db.models import Case, IntegerField, Value, When
-
-    from harness.models import Run
-
-    return (Run.objects.filter(target__name=reference_target, testcase_id=run.testcase_id, name=run.name,
-                               testcase_hash=run.testcase_hash, state__in=SUCCESS_STATES)
-            .annotate(preference=Case(
-                When(machine_id=run.machine_id, build__current=True, then=Value(0)),
-                When(machine_id=run.machine_id, then=Value(1)), default=Value(2),
-                output_field=IntegerField()))
-            .order_by("preference", "-finished", "-id"))
+def is_failing(run) -> bool:
+    """Whether a run is failing: it failed (for its own build, ``effective_state``) or is inconsistent, and no
+    reviewer accepted it (``run.accepted``, the annotation of ``RunQuerySet.with_accepted``). ``harness list
+    -q``, the "failing since" streaks and ``harness check`` (whose other failures are runs not executed) share
+    it; its SQL form is ``RunQuerySet.failing``."""
+    if run.accepted:
+        return False
+    return effective_state(run) == "failed" or run.consistency == "inconsistent"
 
 
-def find_reference_run(run, reference_target: str | None):
-    """The reference run of ``run`` by ``reference_target`` (None: no target, or no run of this content)."""
-    if not reference_target:
-        return None
-    return reference_candidates(run, reference_target).first()
-
-
-def stale_reference(run, reference_target: str):
-    """A successful reference run of the same test case and run name but other content (or None).
-
-    Used to say why there is no reference run: the reference ran an earlier (or later) version of the test
-    case, and ``harness run`` of the reference target refreshes it.
-    """
-    from harness.models import Run
-
-    return (Run.objects.filter(target__name=reference_target, testcase_id=run.testcase_id, name=run.name,
-                               state__in=SUCCESS_STATES).exclude(testcase_hash=run.testcase_hash)
-            .select_related("build").order_by("-finished", "-id").first())
+def relative_spread(timing) -> float:
+    """The measured noise of a run's stepping time: (max - min) / median of its repeated stepping times
+    (``timing["stepping_repeats"]``, ``harness run --repeat N``); 0 without repeats."""
+    repeats = [t for t in ((timing or {}).get("stepping_repeats") or []) if isinstance(t, (int, float)) and t > 0]
+    if len(repeats) < 2:
+        return 0.0
+    return (max(repeats) - min(repeats)) / statistics.median(repeats)

@@ -12,7 +12,6 @@ message (``harness check`` scores every such run before it writes its report, so
 from __future__ import annotations
 
 from harness.check import CheckReport, RunVerdict, junit_xml, verdict_of
-from harness.coverage import covered_runs
 
 #: a checkable run the check has not scored yet (its consistency is still blank)
 NOT_CHECKED = "not checked against the reference yet (run 'harness check')"
@@ -37,18 +36,12 @@ def stored_verdict(run, allow_missing: bool = False) -> RunVerdict:
     return verdict
 
 
-def current_runs(machine_id: int | None = None, target_id: int | None = None):
-    """Runs of each target's current build on each machine, not replaced by a newer run of other content:
-    the runs ``harness check`` gives verdicts on (``harness.coverage.covered_runs``), in its order."""
-    return covered_runs(machine_id=machine_id, target_id=target_id)
-
-
 def stored_report(runs, allow_missing: bool = False) -> CheckReport:
     return CheckReport(verdicts=[stored_verdict(run, allow_missing) for run in runs])
 
 
 def stored_junit_xml(runs, allow_missing: bool = False, failed_builds=()) -> str:
-    """JUnit XML of ``runs`` (e.g. ``current_runs(machine, target)``) and of ``failed_builds`` (e.g.
+    """JUnit XML of ``runs`` (e.g. ``harness.coverage.covered_runs(machine, target)``) and of ``failed_builds`` (e.g.
     ``harness.coverage.failed_current_builds(machine, target)``) by harness.check's writer;
     ``allow_missing`` as ``harness check --allow-missing``."""
     report = stored_report(runs, allow_missing)

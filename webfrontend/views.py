@@ -20,9 +20,9 @@ from django.views.decorators.http import require_POST
 
 from harness.builds import current_build
 from harness.models import Build, ConsistencyResult, Machine, Override, Run, Series, Target, TestCase
-from harness.coverage import covered, failed_current_builds
+from harness.coverage import covered_runs, failed_current_builds
 from harness.queries import CONSISTENCY_CATEGORIES, STATE_CATEGORIES, stepping_changes
-from harness.verdicts import current_runs, stored_junit_xml, stored_verdict
+from harness.verdicts import stored_junit_xml, stored_verdict
 from webfrontend import params, plots, presentation
 from webfrontend.forms import OverrideForm
 from webfrontend.runfiles import RunFolder
@@ -38,12 +38,6 @@ MODES = ("state", "consistency")
 #: fields of a run (and its build) no run list shows: left in the database, whatever their size
 LIST_DEFERRED = ("config", "command", "timing", "breakdown", "failure_message", "folder", "build__log",
                  "build__commit_message", "build__environment", "build__executable")
-
-
-def _current(queryset):
-    """Runs of their target's current build that no newer run of other content replaced: what a verdict
-    covers (harness.coverage, shared with `harness check` and the JUnit XML)."""
-    return covered(queryset)
 
 
 def _mode(request) -> tuple[str, str | None]:
@@ -105,7 +99,7 @@ def overview(request):
     mode, _ = _mode(request)
     selected = params.optional_id(request.GET, "machine")
     found = _filters(request)
-    runs = _current(Run.objects.search(**found["filters"]))
+    runs = Run.objects.search(**found["filters"]).current()
     everything = Run.objects.search(**found["filters"])
     if selected is not None:
         runs, everything = runs.filter(machine_id=selected), everything.filter(machine_id=selected)
@@ -167,7 +161,7 @@ def folder(request, machine_id, target_id, folder=""):
     target = get_object_or_404(Target.objects.select_related("reference"), pk=target_id)
     build = current_build(target.name, machine.name)
     found = _filters(request)
-    runs = _current(Run.objects.filter(machine=machine, target=target).search(**found["filters"]))
+    runs = Run.objects.filter(machine=machine, target=target).search(**found["filters"]).current()
     folder = folder.strip("/")
     children, whole = runs.folder(folder)
     testcase = None
@@ -483,7 +477,7 @@ def junit(request):
         machine = machines[0].pk if machines else None
     # ?allow_missing=1: runs not executed are skipped, as `harness check --allow-missing` writes them
     allow_missing = params.choice(request.GET, "allow_missing", ("0", "1"), "0") == "1"
-    response = HttpResponse(stored_junit_xml(current_runs(machine, target), allow_missing,
+    response = HttpResponse(stored_junit_xml(covered_runs(machine, target), allow_missing,
                                              failed_current_builds(machine, target)),
                             content_type="application/xml")
     response["Content-Disposition"] = 'attachment; filename="junit.xml"'

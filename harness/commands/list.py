@@ -12,7 +12,7 @@ def configure(parser):
     parser.add_argument("--state", help="only runs in this state (failed, post_processed, outdated, ...)")
     parser.add_argument("-k", dest="pattern", metavar="PATTERN", help="only runs whose 'testcase/run' match")
     parser.add_argument("-q", dest="quiet", action="store_true",
-                        help="only runs that failed or are inconsistent")
+                        help="only failing runs: failed or inconsistent, and not accepted by a reviewer")
     parser.add_argument("--json", action="store_true", help="print the runs as JSON")
     parser.add_argument("--all-machines", action="store_true", help="runs of every machine, not only this one")
     parser.add_argument("--all-builds", action="store_true",
@@ -51,9 +51,11 @@ def run(args) -> int:
         definitions, _problems = load_targets(args.targets_dir)
         for definition in definitions.values():
             record_current_build(definition, args.machine)
-        runs = runs.filter(build__current=True, replaced=False)
+        runs = runs.current()
     matched = [r for r in runs if matches(args.pattern, r.testcase.path, r.name)]
-    selected = [r for r in matched if not args.quiet or r.state == "failed" or r.consistency == "inconsistent"]
+    # -q: the failing runs (harness.rules.is_failing), as "failing since" and `harness check` count them
+    failing = set(runs.failing().values_list("pk", flat=True)) if args.quiet else set()
+    selected = [r for r in matched if not args.quiet or r.pk in failing]
     if args.json:
         print(json.dumps(finite([{
             "machine": r.machine.name, "target": r.target.name, "commit": r.build.commit,

@@ -80,11 +80,12 @@ class OverviewTest(DashboardTest):
         """Per target, the passed / failed / not run counts equal the stored verdicts of harness.verdicts (the
         verdicts `harness check` writes), also after a reviewer overrules a failure and an inconsistency."""
         from harness.models import Override
-        from harness.verdicts import current_runs, stored_verdict
+        from harness.coverage import covered_runs
+        from harness.verdicts import stored_verdict
 
         def from_check():
             out = {}
-            for run in current_runs():
+            for run in covered_runs():
                 status = {"skipped": "not run"}.get(stored_verdict(run).status, stored_verdict(run).status)
                 counts = out.setdefault(run.target.name, {"passed": 0, "failed": 0, "not run": 0})
                 counts[status] += 1
