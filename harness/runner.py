@@ -11,9 +11,7 @@ from __future__ import annotations
 import hashlib
 import os
 import shlex
-import shutil
 import signal
-import subprocess
 import sys
 import threading
 import time
@@ -21,13 +19,12 @@ from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor
 from concurrent.futures import wait as wait_futures
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
-from functools import lru_cache
 from pathlib import Path
 
 from harness import execute as ex
 from harness import scaling
 from harness.adapters import get_adapter
-from harness.adapters.base import UserError
+from harness.adapters.base import UserError, with_open_mpi_flags
 from harness.builds import BuildError, build_target, failed_build, record_build_failure
 from harness.rules import SUCCESS_STATES, effective_state
 from harness.targets import TargetDefinition
@@ -77,23 +74,12 @@ class RunReport:
         return [r for r in self.records if r["state"] == "failed"]
 
 
-@lru_cache(maxsize=None)
-def _is_open_mpi(launcher: str) -> bool:
-    path = shutil.which(launcher)
-    if not path:
-        return False
-    try:
-        out = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=20)
-    except (OSError, subprocess.TimeoutExpired):
-        return False
-    return "Open MPI" in (out.stdout + out.stderr) or "OpenRTE" in (out.stdout + out.stderr)
-
-
 def mpi_prefix(target: TargetDefinition, config: dict) -> list[str] | None:
-    """Launcher prefix for mpi runs (thesis listing 4.3: ``mpirun -np 4``).
+    """Launcher prefix for mpi runs (thesis listing 4.3: ``mpirun -np 4``), None for serial runs.
 
     Open MPI refuses to start as root and to place more ranks than cores; in a container (root, few cores)
-    ``--allow-run-as-root`` and ``--oversubscribe`` are added, and only then.
+    ``--allow-run-as-root`` and ``--oversubscribe`` are added, and only then
+    (``harness.adapters.base.with_open_mpi_flags``).
     """
     run_type = config.get("type", "serial")
     if run_type == "serial":
@@ -101,15 +87,9 @@ def mpi_prefix(target: TargetDefinition, config: dict) -> list[str] | None:
     launcher = list(target.mpi_launcher)
     if run_type == "mpi/custom":
         options = config.get("mpi_options", [])
-        return launcher + (shlex.split(options) if isinstance(options, str) else [str(o) for o in options])
-    nprocs = int(config["nprocs"])
-    extra = []
-    if _is_open_mpi(launcher[0]):
-        if os.geteuid() == 0:
-            extra.append("--allow-run-as-root")
-        if nprocs > (os.cpu_count() or 1):
-            extra.append("--oversubscribe")
-    return launcher + extra + ["-np", str(nprocs)]
+        return with_open_mpi_flags(
+            launcher + (shlex.split(options) if isinstance(options, str) else [str(o) for o in options]))
+    return with_open_mpi_flags(launcher + ["-np", str(int(config["nprocs"]))])
 
 
 def run_folder(machine: str, target: str, build_key: str, testcase: str, run: str, testcase_hash: str) -> Path:

@@ -5,9 +5,15 @@ files the program leaves there: a log, thermo output, a timing breakdown, VTK du
 """
 from __future__ import annotations
 
+import functools
+import os
 import re
+import shutil
+import subprocess
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import pandas as pd
 
 
 class UserError(Exception):
@@ -39,12 +45,51 @@ def find_column(columns, wanted: str) -> str | None:
     return lowered.get(wanted.lower()) or lowered.get(bare.lower())
 
 
+@functools.lru_cache(maxsize=None)
+def is_open_mpi(launcher: str) -> bool:
+    """Whether the MPI launcher ``launcher`` (a name on PATH or a path) is Open MPI's (its ``--version``)."""
+    path = shutil.which(launcher)
+    if not path:
+        return False
+    try:
+        out = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=20)
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return "Open MPI" in (out.stdout + out.stderr) or "OpenRTE" in (out.stdout + out.stderr)
+
+
+def with_open_mpi_flags(mpi: list[str]) -> list[str]:
+    """The launcher prefix ``mpi`` (``["mpirun", "-np", "4"]``) with the flags Open MPI needs in a container,
+    added only where needed - the one place they are added (``harness.runner.mpi_prefix`` calls it):
+
+    - ``--allow-run-as-root``: Open MPI refuses to start as root (uid 0, usual in containers and CI);
+    - ``--oversubscribe``: Open MPI refuses ``-np`` above the number of cores it detects.
+
+    Flags already present are not repeated; other launchers (MPICH, srun) are left untouched.
+    """
+    mpi = list(mpi)
+    if not mpi or not is_open_mpi(mpi[0]):
+        return mpi
+    extra = []
+    if os.geteuid() == 0 and "--allow-run-as-root" not in mpi:
+        extra.append("--allow-run-as-root")
+    nprocs = None
+    for flag in ("-np", "-n", "--np"):
+        if flag in mpi[:-1]:
+            value = mpi[mpi.index(flag) + 1]
+            nprocs = int(value) if value.isdigit() else None
+    if nprocs is not None and nprocs > (os.cpu_count() or 1) and "--oversubscribe" not in mpi:
+        extra.append("--oversubscribe")
+    return mpi[:1] + extra + mpi[1:]
+
+
 class EngineAdapter:
     """Base class; subclasses set ``name`` and implement the methods below.
 
     The contract, everything code-specific in one place (../shared/design.md, "Engines are programs"):
 
-    - ``command``: the command line of one run; ``log_file``: the log it asks the code to write;
+    - ``command``: the command line of one run (by default the LAMMPS-style ``-in``/``-var``/``-log`` contract
+      the bundled engine, LIGGGHTS and LAMMPS share); ``log_file``: the log it asks the code to write;
     - ``accepts_script``: whether a plain ``script`` of a run.config is in this code's input language;
     - ``default_thermo_columns`` and ``map_thermo``: the code's names for the harness' thermo columns;
     - ``read_thermo``, ``read_timing``, ``scan_log``, ``vtk_files``: what a finished run left behind;
@@ -85,9 +130,8 @@ class EngineAdapter:
         ``candidates[key]`` (a list of names, e.g. the IDs of erotate/sphere computes). Columns are matched
         with ``find_column``. ``step`` and ``atoms`` become integers when they have no gaps; every other
         column of the table follows under its own name. Errors are ``UserError`` lines naming ``source``.
+        Every adapter maps its thermo through here (the one home of the mapping).
         """
-        import pandas as pd
-
         columns = [str(c) for c in table.columns]
         table = table.copy()
         table.columns = columns
@@ -118,11 +162,16 @@ class EngineAdapter:
 
     def command(self, executable: list[str], script: str, variables: dict[str, str], log: str,
                 mpi: list[str] | None = None) -> list[str]:
-        """Command line that runs ``script`` (relative to the run folder) with ``-var`` values.
+        """Command line that runs ``script`` (relative to the run folder) with ``-var`` values:
+        ``[MPI PREFIX] EXECUTABLE -in SCRIPT -var NAME VALUE ... -log LOG``.
 
-        ``mpi`` is the launcher prefix (e.g. ``["mpirun", "-np", "4"]``) for mpi runs, else None.
+        ``mpi`` is the launcher prefix (e.g. ``["mpirun", "-np", "4"]``, with its Open MPI flags already
+        added by ``harness.runner.mpi_prefix``) for mpi runs, else None.
         """
-        raise NotImplementedError
+        command = list(mpi or []) + list(executable) + ["-in", script]
+        for name, value in (variables or {}).items():
+            command += ["-var", str(name), str(value)]
+        return command + ["-log", log]
 
     def log_file(self) -> str:
         """Name of the log file the harness asks the engine to write in the run folder."""

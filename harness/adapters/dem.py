@@ -35,21 +35,6 @@ def scan_lines(text: str) -> LogScan:
     return scan
 
 
-def apply_mapping(frame: pd.DataFrame, mapping: dict[str, str] | None, required, source: str) -> pd.DataFrame:
-    """Rename engine columns onto the harness' names (``{"ke": "KinEng"}``) and check the required ones."""
-    if mapping:
-        missing = [column for column in mapping.values() if column not in frame.columns]
-        if missing:
-            raise UserError(f"{source}: thermo_columns names column(s) {', '.join(missing)} that are not there "
-                            f"(columns: {', '.join(map(str, frame.columns))})")
-        frame = frame.rename(columns={engine: ours for ours, engine in mapping.items()})
-    absent = [column for column in required if column not in frame.columns]
-    if absent:
-        raise UserError(f"{source}: required thermo column(s) {', '.join(absent)} missing "
-                        f"(columns: {', '.join(map(str, frame.columns))}); map them with thermo_columns")
-    return frame
-
-
 @register
 class DemAdapter(EngineAdapter):
     name = "dem"
@@ -60,12 +45,6 @@ class DemAdapter(EngineAdapter):
     profiler = "phases"
     thermo_file = "thermo.csv"
     timing_file = "timing.json"
-
-    def command(self, executable, script, variables, log, mpi=None):
-        command = list(mpi or []) + list(executable) + ["-in", script]
-        for name, value in variables.items():
-            command += ["-var", str(name), str(value)]
-        return command + ["-log", log]
 
     def log_file(self) -> str:
         return "log.dem"
@@ -86,7 +65,7 @@ class DemAdapter(EngineAdapter):
         frame.columns = [str(c).strip() for c in frame.columns]
         if frame.empty:
             raise UserError(f"{self.thermo_file}: header only, no thermo rows")
-        return apply_mapping(frame, mapping, self.required_thermo, self.thermo_file)
+        return self.map_thermo(frame, mapping, self.thermo_file)
 
     def read_timing(self, folder: Path) -> dict[str, float]:
         path = Path(folder) / self.timing_file

@@ -34,8 +34,8 @@ import re
 from pathlib import Path
 
 from harness.adapters import register
-from harness.adapters.base import LogScan, UserError
-from harness.adapters.liggghts import LiggghtsAdapter, erotate_compute_ids, parse_thermo_blocks, read_log_lines
+from harness.adapters.base import UserError
+from harness.adapters.lammps_family import DUMP, LOOP_TIME, LammpsFamilyAdapter, erotate_compute_ids
 
 #: log file name the harness passes with ``-log`` (LAMMPS' own default is ``log.lammps`` too)
 LOG_NAME = "log.lammps"
@@ -44,9 +44,7 @@ TIMING_SECTIONS = {"Pair": "pair", "Neigh": "neigh", "Comm": "comm", "Output": "
                    "Other": "other", "Bond": "bond", "Kspace": "kspace"}
 TIMING_KEYS = ("pair", "neigh", "comm", "modify", "output", "other", "total")
 
-_LOOP_TIME = re.compile(r"^Loop time of (\S+) on (\d+) procs? for (\d+) steps")
 _TABLE_ROW = re.compile(r"^(\w+)\s*\|")
-_DUMP = re.compile(r"^\s*dump\s+(\S+)\s+\S+\s+(\S+)\s+\d+\s+(\S+)")
 #: text dump styles converted to VTK, and styles LAMMPS writes as VTK itself (VTK package)
 _TEXT_DUMPS = {"custom", "custom/gz"}
 _VTK_DUMPS = {"vtk", "custom/vtk"}
@@ -68,7 +66,7 @@ def parse_timing(lines: list[str]) -> dict[str, float]:
     timing = {key: 0.0 for key in TIMING_KEYS}
     in_table = False
     for line in lines:
-        loop = _LOOP_TIME.match(line)
+        loop = LOOP_TIME.match(line)
         if loop:
             timing["total"] += float(loop.group(1))
             continue
@@ -108,7 +106,7 @@ def parse_breakdown(lines: list[str]) -> dict:
     block = None
     in_table = False
     for line in lines:
-        loop = _LOOP_TIME.match(line)
+        loop = LOOP_TIME.match(line)
         if loop:
             if block is not None:
                 breakdown = add_block(breakdown, block)
@@ -236,7 +234,7 @@ def dump_patterns(lines: list[str]) -> list[tuple[str, str, str]]:
     are left out (LAMMPS echoes the substituted line right after)."""
     found = []
     for line in lines:
-        m = _DUMP.match(line)
+        m = DUMP.match(line)
         if m and "$" not in m.group(3) and m.groups() not in found:
             found.append(m.groups())
     return found
@@ -256,60 +254,37 @@ def _matching_files(folder: Path, pattern: str) -> list[tuple[Path, int | None]]
 
 
 @register
-class LammpsAdapter(LiggghtsAdapter):
+class LammpsAdapter(LammpsFamilyAdapter):
     """LAMMPS (GRANULAR package): command line, thermo/timing/errors from its log, custom dumps as VTK.
 
-    LAMMPS and LIGGGHTS share the command line, the thermo table and the error lines (LIGGGHTS is a LAMMPS
-    fork), so the LIGGGHTS adapter's command, error scan and ``in.*`` default run.config are reused; the
-    timing table, the thermo column names and the dumps differ.
+    The command line, the thermo blocks, the error lines and the ``in.*`` default run.config are those of
+    every LAMMPS-family code (``harness.adapters.lammps_family``); the timing table, the thermo column names
+    and the dumps are LAMMPS' own.
     """
 
     name = "lammps"
+    code = "LAMMPS"
+    log_name = LOG_NAME
     default_thermo_columns = {"step": "Step", "atoms": "Atoms", "ke": "KinEng"}
+    #: a column only some blocks print (e.g. CPU added by a later thermo_style) is left out
+    common_thermo_columns = True
     #: folder of the run where converted dumps are written
     vtk_folder = "vtk"
-
-    def log_file(self) -> str:
-        return LOG_NAME
 
     def accepts_script(self, script: str) -> bool:
         """LAMMPS input under any name (``in.*``, ``*.in``, ``*.lmp``), but not a JSON scene of the bundled
         engine or a YADE Python script."""
         return not script.endswith((".json", ".py"))
 
-    def read_thermo(self, folder, mapping=None):
-        """Thermo of all run blocks: step, atoms, ke, rke, then the log's own columns.
-
-        rke is the column of a ``compute ID group erotate/sphere`` echoed in the log (``c_ID``) unless
-        ``thermo_columns`` names one. A block that starts at the step the previous one ended at (``run N``
-        after ``run M``) repeats that row: the earlier row is kept. Blocks with other columns are joined
-        (missing values NaN).
-        """
-        import pandas as pd
-
-        folder = Path(folder)
-        lines = read_log_lines(folder, self.log_file())
-        source = str(folder / self.log_file())
-        frames, last_step = [], None
-        for header, rows in parse_thermo_blocks(lines):
-            if rows and last_step is not None and rows[0][0] == last_step:
-                rows = rows[1:]
-            if not rows:
-                continue
-            frames.append(pd.DataFrame(rows, columns=header))
-            last_step = rows[-1][0]
-        if not frames:
-            raise UserError(f"{source}: no thermo output (a 'thermo' table after a 'Step ...' header)")
-        # a column only some blocks print (e.g. CPU added by a later thermo_style) would be NaN in the others
-        common = [c for c in frames[0].columns if all(c in f.columns for f in frames)]
-        table = pd.concat([f[common] for f in frames], ignore_index=True)
-        candidates = {"rke": [f"c_{cid}" for cid in erotate_compute_ids(lines)]}
-        return self.map_thermo(table, mapping, source, candidates)
+    def rke_candidates(self, lines: list[str]) -> list[str]:
+        """The column ``c_ID`` of a ``compute ID group erotate/sphere`` echoed in the log (LAMMPS keeps the
+        ``c_`` prefix)."""
+        return [f"c_{cid}" for cid in erotate_compute_ids(lines)]
 
     def read_timing(self, folder):
         """Seconds summed over run blocks: total (``Loop time``), pair, neigh, comm, modify, output, other."""
         try:
-            lines = read_log_lines(Path(folder), self.log_file())
+            lines = self.log_lines(folder)
         except UserError:
             return {key: 0.0 for key in TIMING_KEYS}
         return parse_timing(lines)
@@ -317,29 +292,9 @@ class LammpsAdapter(LiggghtsAdapter):
     def read_breakdown(self, folder, timing=None):
         """Sections with min/avg/max over ranks (``parse_breakdown``); {} without a log."""
         try:
-            return parse_breakdown(read_log_lines(Path(folder), self.log_file()))
+            return parse_breakdown(self.log_lines(folder))
         except UserError:
             return {}
-
-    def scan_log(self, folder) -> LogScan:
-        """``ERROR`` lines of the log, stdout and stderr (other ranks' errors reach the screen only), once
-        each, and the log's ``WARNING`` lines; a missing log is an error (LAMMPS opens it first thing)."""
-        folder = Path(folder)
-        log = folder / self.log_file()
-        scan = LogScan()
-        if not log.is_file():
-            scan.errors.append(f"{log.name} missing: LAMMPS did not start or could not open its log")
-        sources = [log] + sorted(p for p in folder.glob("std*") if p.is_file() and p.suffix in ("", ".txt", ".log"))
-        for source in sources:
-            if not source.is_file():
-                continue
-            for line in source.read_text(errors="replace").splitlines():
-                text = line.strip()
-                if text.startswith("ERROR") and text not in scan.errors:
-                    scan.errors.append(text)
-                elif text.startswith("WARNING") and source == log:
-                    scan.warnings.append(text)
-        return scan
 
     def vtk_files(self, folder):
         """Per-atom VTK files of the run's dumps, by time step (converted from text dumps on first call)."""
@@ -347,7 +302,7 @@ class LammpsAdapter(LiggghtsAdapter):
 
         folder = Path(folder)
         try:
-            lines = read_log_lines(folder, self.log_file())
+            lines = self.log_lines(folder)
         except UserError:
             return []
         found: dict[Path, tuple[int, int]] = {}

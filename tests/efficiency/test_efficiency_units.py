@@ -84,12 +84,12 @@ def test_scaling_problems_are_one_line_each_with_their_json_path(tmp_path):
 @pytest.mark.skipif(shutil.which("lmp") is None or shutil.which("mpirun") is None, reason="needs Debian lammps")
 def test_lammps_breakdown_has_min_avg_max_over_two_ranks_and_the_pair_imbalance(tmp_path):
     from harness.adapters.lammps import LammpsAdapter
-    from harness.adapters.liggghts import mpi_prefix
+    from harness.adapters.base import with_open_mpi_flags
 
     shutil.copy(ROOT / "testcases" / "lammps" / "settling" / "in.settling", tmp_path)
     (tmp_path / "post").mkdir()
-    subprocess.run(mpi_prefix(["mpirun", "-np", "2"]) + ["lmp", "-in", "in.settling", "-var", "steps", "1000",
-                                                         "-log", "log.lammps"],
+    subprocess.run(with_open_mpi_flags(["mpirun", "-np", "2"]) + ["lmp", "-in", "in.settling", "-var", "steps", "1000",
+                                                                 "-log", "log.lammps"],
                    cwd=tmp_path, check=True, capture_output=True, timeout=300)
     log = (tmp_path / "log.lammps").read_text()
     found = LammpsAdapter().read_breakdown(tmp_path)

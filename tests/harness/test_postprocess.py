@@ -103,7 +103,7 @@ def test_dem_adapter_files(tmp_path):
     assert adapter.command(["python", "-m", "engine"], "s.json", {"N": 4}, "log.dem", ["mpirun", "-np", "2"]) == \
         ["mpirun", "-np", "2", "python", "-m", "engine", "-in", "s.json", "-var", "N", "4", "-log", "log.dem"]
     (tmp_path / "thermo.csv").write_text("step,time,atoms,KinEng,rke\n0,0,3,1.0,0\n10,0.1,3,nan,0\n")
-    with pytest.raises(UserError, match=r"required thermo column\(s\) ke missing"):
+    with pytest.raises(UserError, match=r"thermo\.csv: no thermo column for 'ke' \(columns: step, time, atoms, KinEng, rke\)"):
         adapter.read_thermo(tmp_path)
     frame = adapter.read_thermo(tmp_path, {"ke": "KinEng"})
     assert non_finite_columns(frame) == ["ke"]

@@ -6,7 +6,8 @@ import os
 import pytest
 
 from harness.adapters.base import UserError
-from harness.adapters.liggghts import LOG_NAME, LiggghtsAdapter, mpi_prefix
+from harness.adapters.base import is_open_mpi, with_open_mpi_flags as mpi_prefix
+from harness.adapters.liggghts import LOG_NAME, LiggghtsAdapter
 
 adapter = LiggghtsAdapter()
 
@@ -177,8 +178,7 @@ def test_mpi_flags_only_where_needed():
     cores = os.cpu_count() or 1
     many = mpi_prefix(["mpirun", "-np", str(cores + 1)])
     few = mpi_prefix(["mpirun", "-np", "1"])
-    from harness.adapters.liggghts import _mpirun_version
-    if "Open MPI" in _mpirun_version("mpirun"):
+    if is_open_mpi("mpirun"):
         assert ("--allow-run-as-root" in few) == (os.geteuid() == 0)
         assert "--oversubscribe" in many and "--oversubscribe" not in few
         assert many[0] == "mpirun" and many[-2:] == ["-np", str(cores + 1)]
