@@ -15,7 +15,6 @@ import argparse
 import csv
 import math
 import os
-import re
 import subprocess
 import sys
 import tempfile
@@ -24,12 +23,12 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 SCENE = REPO / "engine" / "examples" / "settling.json"
 RADIUS = 0.0015  # m, as in the scene
-LOOP = re.compile(r"Loop time of ([\d.e+-]+) s for (\d+) steps with (\d+) particles \(([\d.e+-]+) particle-steps/s\)"
-                  r".*\(([\d.e+-]+) particle-steps per cpu second\)")
+sys.path.insert(0, str(REPO))  # the harness' adapters read the logs
+from harness.adapters import get_adapter  # noqa: E402
 
 
-def run_engine(folder: Path, variables: dict) -> tuple[str, int]:
-    """Run the engine as a program; returns (log text, peak RSS in kB)."""
+def run_engine(folder: Path, variables: dict) -> int:
+    """Run the engine as a program in ``folder``; returns its peak RSS in kB."""
     cmd = [sys.executable, "-m", "engine", "-in", str(SCENE), "-log", "log.dem"]
     for k, v in variables.items():
         cmd += ["-var", k, str(v)]
@@ -39,7 +38,7 @@ def run_engine(folder: Path, variables: dict) -> tuple[str, int]:
     err = proc.stderr.read().decode()
     if os.waitstatus_to_exitcode(status) != 0:
         raise SystemExit(f"engine failed: {err.strip()}")
-    return (folder / "log.dem").read_text(), usage.ru_maxrss
+    return usage.ru_maxrss
 
 
 def main():
@@ -58,13 +57,13 @@ def main():
         usable = (2 * half_width - 2 * RADIUS) ** 2
         height = n * 4 / 3 * math.pi * RADIUS ** 3 / (0.28 * usable) + 2 * RADIUS
         with tempfile.TemporaryDirectory() as tmp:
-            log, rss_kb = run_engine(Path(tmp), dict(N=n, SEED=1, HALF_WIDTH=half_width, HEIGHT=height,
+            rss_kb = run_engine(Path(tmp), dict(N=n, SEED=1, HALF_WIDTH=half_width, HEIGHT=height,
                                                      DUMP_EVERY=10 ** 9, SETTLE_STEPS=args.settle,
                                                      MEASURE_STEPS=args.measure))
-            loops = LOOP.findall(log)
+            loops = get_adapter("dem").loop_blocks(Path(tmp))
             with open(Path(tmp) / "thermo.csv") as handle:
                 last = list(csv.DictReader(handle))[-1]
-        settle_rate, settled_rate, settled_cpu = float(loops[0][3]), float(loops[1][3]), float(loops[1][4])
+        settle_rate, settled_rate, settled_cpu = loops[0].rate, loops[1].rate, loops[1].cpu_rate
         print(f"{n:>7} {settle_rate:>11.3e} {settled_rate:>11.3e} {settled_cpu:>12.3e} {last['contacts']:>9} "
               f"{float(last['ke']):>11.3e} {rss_kb / 1024:>14.1f}", flush=True)
 

@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import re
 import statistics
 import subprocess
 import sys
@@ -29,7 +28,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 SCENE = REPO / "engine" / "examples" / "settling_box.json"
 RADIUS = 0.0015  # m, as in the scene
-LOOP = re.compile(r"Loop time of ([\d.e+-]+) s for (\d+) steps")
+sys.path.insert(0, str(REPO))  # the harness' adapters read the logs
+from harness.adapters import get_adapter  # noqa: E402
 
 
 def variables(n: int, settle: int, measure: int) -> dict:
@@ -55,8 +55,8 @@ def run(build: Path, threads: int, values: dict) -> tuple[float, float]:
         proc = subprocess.run(cmd, cwd=tmp, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         if proc.returncode:
             raise SystemExit(f"{build} ({threads} threads): engine failed: {proc.stderr.strip()[-500:]}")
-        loops = LOOP.findall((Path(tmp) / "log.dem").read_text())
-        return float(loops[0][0]), float(loops[1][0])
+        loops = get_adapter("dem").loop_blocks(Path(tmp))
+        return loops[0].seconds, loops[1].seconds
 
 
 def main():

@@ -21,7 +21,6 @@ import argparse
 import json
 import math
 import os
-import re
 import shutil
 import statistics
 import subprocess
@@ -33,8 +32,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from liggghts_settling import IN_SETTLING, LIGGGHTS  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
-ENGINE_LOOP = re.compile(r"Loop time of ([\d.e+-]+) s for (\d+) steps")
-LIGGGHTS_LOOP = re.compile(r"^Loop time of (\S+) on \d+ procs? for (\d+) steps", re.M)
+sys.path.insert(0, str(REPO))  # the harness' adapters read the logs
+from harness.adapters import get_adapter  # noqa: E402
+from harness.adapters.base import with_open_mpi_flags  # noqa: E402
 
 
 def scene_variables(n: int, steps: int) -> dict:
@@ -51,7 +51,7 @@ def run_engine(engine: Path, folder: Path, variables: dict, threads: int) -> tup
     proc = subprocess.run(cmd, cwd=folder, env=env, capture_output=True, text=True)
     if proc.returncode:
         raise SystemExit(f"engine failed: {proc.stderr.strip()[-400:]}")
-    loop = sum(float(t) for t, _ in ENGINE_LOOP.findall((folder / "log.dem").read_text()))
+    loop = sum(block.seconds for block in get_adapter("dem").loop_blocks(folder))
     return loop, json.loads((folder / "timing.json").read_text())["cpu"]
 
 
@@ -67,14 +67,14 @@ def run_liggghts(folder: Path, variables: dict, grid: tuple[int, int, int]) -> t
         cmd += ["-var", k, str(v)]
     if ranks > 1:
         mpirun = shutil.which("mpirun") or "mpirun"
-        cmd = [mpirun, "--allow-run-as-root", "--oversubscribe", "-np", str(ranks), "--bind-to", "none"] + cmd
+        cmd = with_open_mpi_flags([mpirun, "-np", str(ranks), "--bind-to", "none"]) + cmd
     env = dict(os.environ, OMP_NUM_THREADS="1")
     proc = subprocess.Popen(cmd, cwd=folder, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _, status, usage = os.wait4(proc.pid, 0)
     err = proc.stderr.read().decode(errors="replace")
     if os.waitstatus_to_exitcode(status):
         raise SystemExit(f"LIGGGHTS failed: {err.strip()[-400:]}")
-    loop = sum(float(t) for t, _ in LIGGGHTS_LOOP.findall((folder / "log.liggghts").read_text()))
+    loop = sum(block.seconds for block in get_adapter("liggghts").loop_blocks(folder))
     return loop, usage.ru_utime + usage.ru_stime
 
 

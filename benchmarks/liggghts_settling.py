@@ -24,7 +24,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import re
 import shutil
 import subprocess
 import sys
@@ -34,6 +33,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 ENGINE_SCENE = REPO / "engine" / "examples" / "settling.json"
 LIGGGHTS = shutil.which("liggghts") or "/usr/bin/liggghts"
+sys.path.insert(0, str(REPO))  # the harness' adapters read the logs
+from harness.adapters import get_adapter  # noqa: E402
 
 # The settling scene in LIGGGHTS syntax, with the variable names of engine/examples/settling.json.
 IN_SETTLING = """\
@@ -85,8 +86,6 @@ unfix           ins
 run             ${MEASURE_STEPS}
 """
 
-_LIGGGHTS_LOOP = re.compile(r"^Loop time of (\S+) on \d+ procs? for (\d+) steps with (\d+) atoms", re.M)
-_ENGINE_LOOP = re.compile(r"Loop time of ([\d.e+-]+) s for (\d+) steps with (\d+) particles")
 
 
 def write_testcase(folder: Path, sizes: list[int], settle: int, measure: int, height: float) -> None:
@@ -125,12 +124,8 @@ def run_record(home: Path, target: str, run: str) -> dict:
 
 def loops(record: dict) -> list[tuple[float, int, int]]:
     """(loop time s, steps, particles) of each run block of a run's log."""
-    folder = Path(record["folder"])
-    if record["adapter"] == "liggghts":
-        found = _LIGGGHTS_LOOP.findall((folder / "log.liggghts").read_text())
-    else:
-        found = _ENGINE_LOOP.findall((folder / "log.dem").read_text())
-    return [(float(t), int(s), int(n)) for t, s, n in found]
+    blocks = get_adapter(record["adapter"]).loop_blocks(Path(record["folder"]))
+    return [(block.seconds, block.steps, block.particles) for block in blocks]
 
 
 def main() -> None:

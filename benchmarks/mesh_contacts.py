@@ -21,7 +21,6 @@ import argparse
 import json
 import math
 import os
-import re
 import statistics
 import subprocess
 import sys
@@ -30,7 +29,8 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 RADIUS = 0.0015  # m
-LOOP = re.compile(r"Loop time of ([\d.e+-]+) s for (\d+) steps")
+sys.path.insert(0, str(REPO))  # the harness' adapters read the logs
+from harness.adapters import get_adapter  # noqa: E402
 GRID = 2.0 ** -10  # m: box coordinates are multiples of this (exact in float32)
 
 
@@ -135,8 +135,8 @@ def run(walls: str, n: int, settle: int, measure: int, threads: int, subdivide: 
         proc = subprocess.run(cmd, cwd=folder, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         if proc.returncode:
             raise SystemExit(f"{walls} walls, N = {n}: engine failed: {proc.stderr.strip()[-500:]}")
-        loops = LOOP.findall((folder / "log.dem").read_text())
-        return float(loops[0][0]), float(loops[1][0]), wall_contacts(folder, half_width)
+        loops = get_adapter("dem").loop_blocks(folder)
+        return loops[0].seconds, loops[1].seconds, wall_contacts(folder, half_width)
 
 
 def main():

@@ -28,6 +28,29 @@ class LogScan:
     warnings: list[str] = field(default_factory=list)
 
 
+@dataclass
+class LoopBlock:
+    """One run block's stepping as the code's log reports it: its loop time in s (no start-up, no JIT
+    compilation), steps, particles at its end, MPI ranks, and - where the code prints them - its own
+    particle-steps per second and per CPU second. The benchmarks read loop times through ``loop_blocks``."""
+
+    seconds: float
+    steps: int
+    particles: int | None = None
+    ranks: int = 1
+    rate: float | None = None
+    cpu_rate: float | None = None
+
+    @property
+    def particle_steps_per_s(self) -> float | None:
+        """The code's own rate when it prints one, else steps x particles / loop time."""
+        if self.rate is not None:
+            return self.rate
+        if self.particles is None or self.seconds <= 0:
+            return None
+        return self.steps * self.particles / self.seconds
+
+
 def find_column(columns, wanted: str) -> str | None:
     """The column of ``columns`` a user or script means by ``wanted``, or None.
 
@@ -92,7 +115,8 @@ class EngineAdapter:
       the bundled engine, LIGGGHTS and LAMMPS share); ``log_file``: the log it asks the code to write;
     - ``accepts_script``: whether a plain ``script`` of a run.config is in this code's input language;
     - ``default_thermo_columns`` and ``map_thermo``: the code's names for the harness' thermo columns;
-    - ``read_thermo``, ``read_timing``, ``scan_log``, ``vtk_files``: what a finished run left behind;
+    - ``read_thermo``, ``read_timing``, ``loop_blocks``, ``scan_log``, ``vtk_files``: what a finished run left
+      behind;
     - ``default_run_config``: run configurations for a folder without run.config (shipped examples).
 
     Adapters are found by name (``harness.adapters.get_adapter``): the built-in modules, adapters other
@@ -184,6 +208,10 @@ class EngineAdapter:
     def read_timing(self, folder: Path) -> dict[str, float]:
         """Timing breakdown in s: pair, neigh, comm, modify, output, other, total (missing ones 0)."""
         raise NotImplementedError
+
+    def loop_blocks(self, folder: Path) -> list[LoopBlock]:
+        """The loop time of each run block the log reports, in order ([]: the code reports none)."""
+        return []
 
     def read_breakdown(self, folder: Path, timing: dict | None = None) -> dict:
         """The timing breakdown in the harness' sections (``harness.breakdown``): pair, neighbor, communication,

@@ -14,9 +14,13 @@ from pathlib import Path
 import pandas as pd
 
 from harness.adapters import register
-from harness.adapters.base import EngineAdapter, LogScan, UserError
+from harness.adapters.base import EngineAdapter, LogScan, LoopBlock, UserError
 
 TIMING_KEYS = ("pair", "neigh", "comm", "modify", "output", "other", "total")
+#: the engine's line after each run block (engine/runner.py): loop time, steps, particles, its rates
+#: (older engines print less of it: everything after the step count is optional)
+LOOP_TIME = re.compile(r"Loop time of (\S+) s for (\d+) steps(?: with (\d+) particles)?(?: \((\S+) particle-steps/s\))?"
+                       r"(?:.*\((\S+) particle-steps per cpu second\))?")
 
 
 def read_text(path: Path) -> str:
@@ -86,6 +90,16 @@ class DemAdapter(EngineAdapter):
     def scan_log(self, folder: Path) -> LogScan:
         path = Path(folder) / self.log_file()
         return scan_lines(read_text(path)) if path.is_file() else LogScan()
+
+    def loop_blocks(self, folder: Path) -> list[LoopBlock]:
+        """From the engine's ``Loop time of T s for N steps with P particles (R particle-steps/s) ...`` lines."""
+        path = Path(folder) / self.log_file()
+        text = read_text(path) if path.is_file() else ""
+        return [LoopBlock(seconds=float(m.group(1)), steps=int(m.group(2)),
+                          particles=int(m.group(3)) if m.group(3) else None,
+                          rate=float(m.group(4)) if m.group(4) else None,
+                          cpu_rate=float(m.group(5)) if m.group(5) else None)
+                for m in LOOP_TIME.finditer(text)]
 
     def largest_overlaps(self, folder: Path) -> list[float]:
         """From the engine's ``Loop time ...; max overlap X% of radius`` line of each run block."""

@@ -7,7 +7,7 @@ write the same log format:
   ``parse_thermo_blocks`` and joined by ``LammpsFamilyAdapter.read_thermo``, mapped onto the harness'
   columns by ``EngineAdapter.map_thermo``;
 - ``Loop time of T on P procs for N steps`` after each run block (``LOOP_TIME``): the code's own loop time,
-  which ``loop_time`` reads (the benchmarks read it through here too);
+  which ``loop_blocks`` reads (the benchmarks read it through here too);
 - ``ERROR: ...`` (or ``ERROR on proc N: ...``) and ``WARNING: ...`` lines (``scan_log``);
 - one run per ``in.*`` input script of a folder without run.config (``default_run_config``).
 
@@ -22,10 +22,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from harness.adapters.base import EngineAdapter, LogScan, UserError
+from harness.adapters.base import EngineAdapter, LogScan, LoopBlock, UserError
 
-#: ``Loop time of 1.23 on 4 procs for 1000 steps``: the end of a run block, with its loop time in s
-LOOP_TIME = re.compile(r"^Loop time of (\S+) on (\d+) procs? for (\d+) steps")
+#: ``Loop time of 1.23 on 4 procs for 1000 steps with 5000 atoms``: the end of a run block, loop time in s
+LOOP_TIME = re.compile(r"^Loop time of (\S+) on (\d+) procs? for (\d+) steps(?: with (\d+) atoms)?")
 #: ``Nlocal:    162 ave 252 max 72 min``: particles per rank after a run block
 NLOCAL = re.compile(r"^Nlocal:\s+(\S+) ave (\S+) max (\S+) min")
 #: an echoed ``dump ID group STYLE N FILE ...`` command
@@ -83,9 +83,11 @@ def erotate_compute_ids(lines: list[str]) -> list[str]:
     return [m.group(1) for line in lines if (m := _EROTATE.match(line))]
 
 
-def loop_times(lines: list[str]) -> list[tuple[float, int, int]]:
-    """``(loop time in s, ranks, steps)`` of every ``Loop time of ...`` line, in log order."""
-    return [(float(m.group(1)), int(m.group(2)), int(m.group(3))) for line in lines if (m := LOOP_TIME.match(line))]
+def loop_blocks(lines: list[str]) -> list[LoopBlock]:
+    """The run block of every ``Loop time of ...`` line, in log order."""
+    return [LoopBlock(seconds=float(m.group(1)), steps=int(m.group(3)), ranks=int(m.group(2)),
+                      particles=int(m.group(4)) if m.group(4) else None)
+            for line in lines if (m := LOOP_TIME.match(line))]
 
 
 class LammpsFamilyAdapter(EngineAdapter):
@@ -139,9 +141,12 @@ class LammpsFamilyAdapter(EngineAdapter):
         table = pd.concat(frames, ignore_index=True)
         return self.map_thermo(table, mapping, source, {"rke": self.rke_candidates(lines)})
 
-    def loop_time(self, folder) -> float:
-        """The code's own loop time of a run in s: the ``Loop time of T`` values summed over its run blocks."""
-        return sum(t for t, _ranks, _steps in loop_times(self.log_lines(folder)))
+    def loop_blocks(self, folder) -> list[LoopBlock]:
+        """Each run block's ``Loop time of T on P procs for N steps with A atoms`` ([] without a log)."""
+        try:
+            return loop_blocks(self.log_lines(folder))
+        except UserError:
+            return []
 
     def scan_log(self, folder) -> LogScan:
         """``ERROR`` lines (they fail a run even with exit code 0) and the log's ``WARNING`` lines, in order.

@@ -1,11 +1,11 @@
-"""Helpers for the build tests: tiny C++ CMake repositories and target files."""
+"""Helpers for the build tests: tiny C++ CMake repositories and target files (the harness process and git
+repositories: tests/harness_process.py)."""
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+import harness_process
+from harness_process import PROJECT as ROOT
+from harness_process import commit_files, git_repo, project_env  # noqa: F401  (the build tests import them from here)
 
 CMAKELISTS = """cmake_minimum_required(VERSION 3.13)
 project(tiny CXX)
@@ -20,30 +20,6 @@ const char *other();
 int main() { std::printf("%s %s %s\\n", GREETING, MARK, other()); return 0; }
 """
 OTHER_CPP = 'const char *other() { return "v1"; }\n'
-
-
-def git_repo(folder: Path):
-    import git
-
-    folder.mkdir(parents=True, exist_ok=True)
-    repo = git.Repo.init(folder)
-    with repo.config_writer() as config:
-        config.set_value("user", "name", "Test")
-        config.set_value("user", "email", "test@example.org")
-    return repo
-
-
-def commit_files(repo, files: dict, message: str, tag: str | None = None) -> str:
-    root = Path(repo.working_tree_dir)
-    for rel, text in files.items():
-        path = root / rel
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
-    repo.git.add("-A")
-    repo.index.commit(message)
-    if tag:
-        repo.create_tag(tag)
-    return repo.head.commit.hexsha
 
 
 def tiny_repo(folder: Path):
@@ -69,14 +45,10 @@ def tiny_target(repo, **extra) -> dict:
 
 
 def harness(home: Path, targets: Path, *args, timeout=600, env=None, popen=False):
-    command = [sys.executable, "-m", "harness.cli", "--machine", "m1", "--home", str(home), "--targets",
-               str(targets), *args]
-    environment = {**os.environ, "PYTHONPATH": str(ROOT), **(env or {})}
-    environment.pop("HARNESS_HOME", None)
-    if popen:
-        return subprocess.Popen(command, cwd=ROOT, env=environment, stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True)
-    return subprocess.run(command, cwd=ROOT, env=environment, capture_output=True, text=True, timeout=timeout)
+    """``harness_process.harness`` as machine m1 with this project first on PYTHONPATH; the exit code is
+    the caller's to check."""
+    return harness_process.harness(home, *args, targets=targets, machine="m1", check=False, timeout=timeout,
+                                   env=project_env(**(env or {})), popen=popen)
 
 
 # the fake engine of tests/harness behind a tiny C++ launcher: every commit is a real C++ build (a second)

@@ -1,35 +1,11 @@
 """(The folder is `builds`, not `build`: pytest does not collect folders named build.) Fixtures for the build tests: a throw-away store (as tests/harness/conftest.py), tiny C++ repositories,
 and one ccache folder shared by the slow LIGGGHTS builds of a session."""
 import os
-import shutil
-import tempfile
 
 import pytest
+from store_fixtures import store_fixtures
 
-_HOME = tempfile.mkdtemp(prefix="harness-build-tests-")
-os.environ["HARNESS_HOME"] = _HOME
-os.environ.setdefault("DJANGO_SETTINGS_MODULE", "harness.settings")
-
-
-@pytest.fixture(scope="session")
-def django_store():
-    from harness.store import setup_store
-
-    setup_store()
-    yield
-    shutil.rmtree(_HOME, ignore_errors=True)
-
-
-@pytest.fixture
-def store(django_store, tmp_path, monkeypatch):
-    """An empty store; builds of this test under ``tmp_path/home``."""
-    from harness.models import Machine, Target, TestCase
-
-    Machine.objects.all().delete()
-    Target.objects.all().delete()
-    TestCase.objects.all().delete()
-    monkeypatch.setenv("HARNESS_HOME", str(tmp_path / "home"))
-    return tmp_path
+django_store, store = store_fixtures("harness-build-tests-")
 
 
 @pytest.fixture(scope="session")

@@ -1,37 +1,9 @@
-"""Helpers for the harness tests: temporary git repositories and the fake engine's source."""
+"""Helpers for the harness tests: the fake engine's source (git repositories: tests/harness_process.py)."""
 from pathlib import Path
 
+from harness_process import commit_files, git_repo  # noqa: F401  (the harness tests import them from here)
+
 FAKE_ENGINE = Path(__file__).parent / "fake_engine" / "__main__.py"
-
-
-def git_repo(folder: Path):
-    import git
-
-    folder.mkdir(parents=True, exist_ok=True)
-    repo = git.Repo.init(folder)
-    with repo.config_writer() as config:
-        config.set_value("user", "name", "Test")
-        config.set_value("user", "email", "test@example.org")
-    return repo
-
-
-def commit_files(repo, files: dict, message: str, tag: str | None = None) -> str:
-    """Write ``{relative path: text}`` (``None`` deletes) and commit; returns the commit id."""
-    root = Path(repo.working_tree_dir)
-    for rel, text in files.items():
-        path = root / rel
-        if text is None:
-            path.unlink()
-            continue
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
-        if rel.startswith("scripts/") or rel.endswith(".sh") or "/scripts/" in rel:
-            path.chmod(0o755)
-    repo.git.add("-A")
-    repo.index.commit(message)
-    if tag:
-        repo.create_tag(tag)
-    return repo.head.commit.hexsha
 
 
 def fake_engine_source(gravity: float = 9.81) -> str:

@@ -1,17 +1,15 @@
 """Helpers for the LAMMPS tests: real runs of Debian's /usr/bin/lmp (29 Sep 2021, GRANULAR) on small scenes."""
 from __future__ import annotations
 
-import json
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from harness.adapters.lammps import LammpsAdapter
+from harness_process import PROJECT, harness, records, run_code, series  # noqa: F401  (the LAMMPS tests import them from here)
 
-PROJECT = Path(__file__).resolve().parents[2]
 LMP = shutil.which("lmp") or "/usr/bin/lmp"
 EXAMPLES = Path("/usr/share/lammps/examples")
 
@@ -23,44 +21,7 @@ needs_mpirun = pytest.mark.skipif(shutil.which("mpirun") is None,
 def run_lammps(folder: Path, script: str, variables: dict | None = None, nprocs: int = 1,
                timeout: float = 120) -> subprocess.CompletedProcess:
     """Run LAMMPS in ``folder`` with the adapter's command line; stdout/stderr land in the folder."""
-    adapter = LammpsAdapter()
-    from harness.runner import mpi_prefix
-    from harness.targets import parse_target
-
-    mpi = None
-    if nprocs > 1:
-        target = parse_target("t", {"recipe": "system", "executable": LMP, "engine": "lammps"}, folder / "t.json")
-        mpi = mpi_prefix(target, {"type": "mpi", "nprocs": nprocs})
-    cmd = adapter.command([LMP], script, variables or {}, adapter.log_file(), mpi)
-    (folder / "post").mkdir(exist_ok=True)
-    result = subprocess.run(cmd, cwd=folder, capture_output=True, text=True, errors="replace", timeout=timeout)
-    (folder / "stdout.txt").write_text(result.stdout)
-    (folder / "stderr.txt").write_text(result.stderr)
-    return result
-
-
-def harness(home: Path, *args: str, targets: Path | None = None, check: bool = True):
-    cmd = [sys.executable, "-m", "harness.cli", "--machine", "testbox", "--home", str(home)]
-    if targets is not None:
-        cmd += ["--targets", str(targets)]
-    result = subprocess.run(cmd + list(args), cwd=PROJECT, capture_output=True, text=True, errors="replace",
-                            timeout=600)
-    if check:
-        assert result.returncode == 0, result.stdout + result.stderr
-    return result
-
-
-def records(home: Path, target: str) -> dict[str, dict]:
-    """run.json records of a target's runs by 'test case/run' (the newest per name)."""
-    found = {}
-    for path in sorted((home / "runs" / "testbox" / target).rglob("run.json"), key=lambda p: p.stat().st_mtime):
-        record = json.loads(path.read_text())
-        found[f"{record['testcase']}/{record['run']}"] = record
-    return found
-
-
-def series(record: dict, kind: str) -> dict:
-    return next(s for s in record["series"] if s["kind"] == kind)["columns"]
+    return run_code(LammpsAdapter(), [LMP], folder, script, variables, nprocs, timeout)
 
 
 # Free fall of 36 spheres in two run blocks: the second changes thermo_style (adds CPU), a lattice

@@ -4,17 +4,15 @@ Tests that need the binary skip with the reason when it is absent; CI installs i
 """
 from __future__ import annotations
 
-import json
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from harness.adapters.liggghts import LiggghtsAdapter
+from harness_process import PROJECT, harness, records, run_code, series  # noqa: F401  (the LIGGGHTS tests import them from here)
 
-PROJECT = Path(__file__).resolve().parents[2]
 SCENES = PROJECT / "testcases" / "liggghts"
 LIGGGHTS = shutil.which("liggghts") or "/usr/bin/liggghts"
 
@@ -27,15 +25,7 @@ needs_mpirun = pytest.mark.skipif(shutil.which("mpirun") is None,
 def run_liggghts(folder: Path, script: str, variables: dict | None = None, nprocs: int = 1,
                  timeout: float = 120) -> subprocess.CompletedProcess:
     """Run LIGGGHTS in ``folder`` through the adapter's command line; stdout/stderr land in the folder."""
-    adapter = LiggghtsAdapter()
-    mpi = ["mpirun", "-np", str(nprocs)] if nprocs > 1 else None
-    cmd = adapter.command([LIGGGHTS], script, variables or {}, adapter.log_file(), mpi)
-    (folder / "post").mkdir(exist_ok=True)
-    # errors="replace": after an ERROR, LIGGGHTS 3.8 sometimes prints a line of stray bytes on the screen
-    result = subprocess.run(cmd, cwd=folder, capture_output=True, text=True, errors="replace", timeout=timeout)
-    (folder / "stdout.txt").write_text(result.stdout)
-    (folder / "stderr.txt").write_text(result.stderr)
-    return result
+    return run_code(LiggghtsAdapter(), [LIGGGHTS], folder, script, variables, nprocs, timeout)
 
 
 def copy_scene(name: str, destination: Path) -> Path:
@@ -83,27 +73,3 @@ thermo_style    custom step atoms ke c_spin cpu
 run             500
 """
 N_FREE_FALL = 6 * 6 * 3
-
-
-def harness(home: Path, *args: str, targets: Path | None = None, check: bool = True):
-    cmd = [sys.executable, "-m", "harness.cli", "--machine", "testbox", "--home", str(home)]
-    if targets is not None:
-        cmd += ["--targets", str(targets)]
-    result = subprocess.run(cmd + list(args), cwd=PROJECT, capture_output=True, text=True, errors="replace",
-                            timeout=300)
-    if check:
-        assert result.returncode == 0, result.stdout + result.stderr
-    return result
-
-
-def records(home: Path, target: str) -> dict[str, dict]:
-    """run.json records of a target's runs by 'test case/run'."""
-    found = {}
-    for path in (home / "runs" / "testbox" / target).rglob("run.json"):
-        record = json.loads(path.read_text())
-        found[f"{record['testcase']}/{record['run']}"] = record
-    return found
-
-
-def series(record: dict, kind: str) -> dict:
-    return next(s for s in record["series"] if s["kind"] == kind)["columns"]

@@ -1,17 +1,15 @@
 """Helpers for the YADE tests: real runs of Debian's /usr/bin/yade (2023.02a) through the adapter's command."""
 from __future__ import annotations
 
-import json
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from harness.adapters.yade import YadeAdapter
+from harness_process import PROJECT, harness, records, series  # noqa: F401  (the YADE tests import them from here)
 
-PROJECT = Path(__file__).resolve().parents[2]
 YADE = shutil.which("yade") or "/usr/bin/yade"
 EXAMPLES = Path("/usr/share/doc/yade/examples")
 
@@ -31,29 +29,6 @@ def run_yade(folder: Path, script: str, variables: dict | None = None, executabl
     out.close()
     err.close()
     return process
-
-
-def harness(home: Path, *args: str, targets: Path | None = None, check: bool = True):
-    cmd = [sys.executable, "-m", "harness.cli", "--machine", "testbox", "--home", str(home)]
-    if targets is not None:
-        cmd += ["--targets", str(targets)]
-    result = subprocess.run(cmd + list(args), cwd=PROJECT, capture_output=True, text=True, errors="replace",
-                            timeout=600)
-    if check:
-        assert result.returncode == 0, result.stdout + result.stderr
-    return result
-
-
-def records(home: Path, target: str) -> dict[str, dict]:
-    found = {}
-    for path in sorted((home / "runs" / "testbox" / target).rglob("run.json"), key=lambda p: p.stat().st_mtime):
-        record = json.loads(path.read_text())
-        found[f"{record['testcase']}/{record['run']}"] = record
-    return found
-
-
-def series(record: dict, kind: str) -> dict:
-    return next(s for s in record["series"] if s["kind"] == kind)["columns"]
 
 
 #: one sphere's mass, kg: 4/3 pi r^3 rho with r = 1.5 mm, rho = 2500 kg/m^3

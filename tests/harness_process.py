@@ -1,0 +1,109 @@
+"""How the tests start the harness and the DEM codes as programs, and read what they leave behind - one copy for
+every test folder (``pythonpath = ["tests"]`` in pyproject.toml puts this folder on the import path).
+
+- ``harness``: ``python -m harness.cli --machine M --home HOME [--targets DIR] ARGS`` from the project folder;
+- ``records`` / ``series``: the run.json records of a target's runs and a series' columns in one;
+- ``run_code``: one run of a code in a folder with its adapter's command line (as ``harness run`` starts it);
+- ``git_repo`` / ``commit_files``: temporary git repositories for targets.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import git
+
+PROJECT = Path(__file__).resolve().parents[1]
+#: the machine name the tests' harness processes record their runs under
+MACHINE = "testbox"
+
+
+def harness(home: Path, *args: str, targets: Path | None = None, check: bool = True, machine: str = MACHINE,
+            timeout: float = 600, env: dict | None = None, popen: bool = False):
+    """Run ``harness ARGS`` on the store under ``home``; with ``check`` its exit code must be 0 (the output is
+    in the assertion). ``env``: the whole environment (None: this process'); ``popen``: start it and return
+    the Popen (stdout and stderr piped) instead of waiting."""
+    command = [sys.executable, "-m", "harness.cli", "--machine", machine, "--home", str(home)]
+    if targets is not None:
+        command += ["--targets", str(targets)]
+    command += [str(a) for a in args]
+    if popen:
+        return subprocess.Popen(command, cwd=PROJECT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                text=True)
+    result = subprocess.run(command, cwd=PROJECT, capture_output=True, text=True, errors="replace",
+                            timeout=timeout, env=env)
+    if check:
+        assert result.returncode == 0, result.stdout + result.stderr
+    return result
+
+
+def project_env(**extra: str) -> dict:
+    """This process' environment with the project first on PYTHONPATH and no HARNESS_HOME (``--home`` names
+    the store), plus ``extra``."""
+    environment = {**os.environ, "PYTHONPATH": str(PROJECT), **extra}
+    environment.pop("HARNESS_HOME", None)
+    return environment
+
+
+def records(home: Path, target: str, machine: str = MACHINE) -> dict[str, dict]:
+    """The newest run.json record per 'test case/run' of a target's runs."""
+    found = {}
+    for path in sorted((home / "runs" / machine / target).rglob("run.json"), key=lambda p: p.stat().st_mtime):
+        record = json.loads(path.read_text())
+        found[f"{record['testcase']}/{record['run']}"] = record
+    return found
+
+
+def series(record: dict, kind: str) -> dict:
+    """The columns of a run record's series of ``kind`` (thermo, vtk, plot, textfile)."""
+    return next(s for s in record["series"] if s["kind"] == kind)["columns"]
+
+
+def run_code(adapter, executable: list[str], folder: Path, script: str, variables: dict | None = None,
+             nprocs: int = 1, timeout: float = 120) -> subprocess.CompletedProcess:
+    """Run a code in ``folder`` with ``adapter``'s command line, on ``nprocs`` MPI ranks with the launcher
+    prefix ``harness run`` uses (``harness.adapters.base.with_open_mpi_flags``); stdout and stderr land in
+    the folder as ``stdout.txt`` and ``stderr.txt``, as the harness keeps them."""
+    from harness.adapters.base import with_open_mpi_flags
+
+    mpi = with_open_mpi_flags(["mpirun", "-np", str(nprocs)]) if nprocs > 1 else None
+    command = adapter.command(list(executable), script, variables or {}, adapter.log_file(), mpi)
+    (folder / "post").mkdir(exist_ok=True)
+    # errors="replace": after an ERROR, LIGGGHTS 3.8 sometimes prints a line of stray bytes on the screen
+    result = subprocess.run(command, cwd=folder, capture_output=True, text=True, errors="replace", timeout=timeout)
+    (folder / "stdout.txt").write_text(result.stdout)
+    (folder / "stderr.txt").write_text(result.stderr)
+    return result
+
+
+def git_repo(folder: Path):
+    """A new git repository in ``folder`` with a committer set."""
+    folder.mkdir(parents=True, exist_ok=True)
+    repo = git.Repo.init(folder)
+    with repo.config_writer() as config:
+        config.set_value("user", "name", "Test")
+        config.set_value("user", "email", "test@example.org")
+    return repo
+
+
+def commit_files(repo, files: dict, message: str, tag: str | None = None) -> str:
+    """Write ``{relative path: text}`` (``None`` deletes; scripts become executable) and commit; returns the
+    commit id."""
+    root = Path(repo.working_tree_dir)
+    for rel, text in files.items():
+        path = root / rel
+        if text is None:
+            path.unlink()
+            continue
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+        if rel.startswith("scripts/") or rel.endswith(".sh") or "/scripts/" in rel:
+            path.chmod(0o755)
+    repo.git.add("-A")
+    repo.index.commit(message)
+    if tag:
+        repo.create_tag(tag)
+    return repo.head.commit.hexsha
