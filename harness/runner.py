@@ -373,110 +373,154 @@ def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out
     run the same run at once nor touch each other's folders; a run another process is running is waited
     for (and not run again when that process finished it).
     """
-    from harness.models import Run
-    from harness.records import store_record
+    _Execution(tasks, options, report, out or sys.stderr).run()
 
-    out = out or sys.stderr
-    total = len(tasks)
-    done_count = 0
-    results: dict[tuple, dict] = {}
-    waiting: set = set()
-    durations: list[float] = []
-    started = time.monotonic()
 
-    def finish(record: dict, task: Task | None = None) -> None:
-        nonlocal done_count
+class _Execution:
+    """One ``execute_tasks``: the runs pending, running and done, the pool they run in, the progress shown."""
+
+    def __init__(self, tasks: list[Task], options: RunOptions, report: RunReport, out):
+        self.tasks, self.options, self.report, self.out = tasks, options, report, out
+        self.total = len(tasks)
+        self.done_count = 0
+        self.results: dict[tuple, dict] = {}
+        self.waiting: set = set()
+        self.durations: list[float] = []
+        self.started = time.monotonic()
+        self.planned = {task.key for task in tasks}
+        self.pending: list[Task] = []
+        self.running: dict = {}
+        self.pool = None
+
+    def run(self) -> None:
+        for task in self.tasks:
+            if "_record" in task.spec:
+                self.finish(task.spec.pop("_record"))
+            else:
+                self.pending.append(task)
+        if not self.pending:
+            return
+        self.pool = _Pool(self.options.jobs, self.options.scheduler)
+        try:
+            while self.pending or self.running:
+                submitted = self.submit_ready()
+                if not self.running:
+                    if self.pending and not submitted:
+                        time.sleep(0.2)  # every remaining run is held by another process
+                    continue
+                self.collect()
+        except KeyboardInterrupt:
+            self.interrupted()
+            raise
+        finally:
+            self.pool.close()
+            ex.clear_interrupt()
+            for task in self.tasks:
+                _release(task)
+
+    def finish(self, record: dict, task: Task | None = None) -> None:
+        """Store a run's record (releasing its claim) and show the progress."""
+        from harness.records import store_record  # reads the store: Django is set up by the caller (harness.store)
+
         try:
             store_record(record)
         finally:
             if task is not None:
                 _release(task)
-        report.records.append(record)
-        results[_record_key(record)] = record
-        durations.append(record.get("wall_time") or 0.0)
-        done_count += 1
-        _progress(done_count, total, record, out)
+        self.report.records.append(record)
+        self.results[_record_key(record)] = record
+        self.durations.append(record.get("wall_time") or 0.0)
+        self.done_count += 1
+        _progress(self.done_count, self.total, record, self.out)
 
-    pending = []
-    for task in tasks:
-        if "_record" in task.spec:
-            record = task.spec.pop("_record")
-            finish(record)
-        else:
-            pending.append(task)
-    if not pending:
-        return
-    planned = {task.key for task in tasks}
-    pool = _Pool(options.jobs, options.scheduler)
-    running: dict = {}
-    try:
-        while pending or running:
-            submitted = False
-            for task in list(pending):
-                if len(running) >= pool.slots:
-                    break
-                dep = None
-                if task.depends_on is not None:
-                    dep = results.get(task.depends_on)
-                    if dep is None and task.depends_on in planned:
-                        continue
-                    if dep is None:
-                        dep = {"state": "not_executed", "failure_reason": ""}
-                claim = _claim(task, options, waiting, out)
-                if claim == "busy":
-                    continue
-                pending.remove(task)
-                submitted = True
-                if claim == "done":
-                    row = Run.objects.get(build_id=task.spec["build"]["id"], machine__name=task.spec["machine"],
-                                          testcase__path=task.spec["testcase"], name=task.spec["run"],
-                                          testcase_hash=task.spec["testcase_hash"])
-                    results[task.key] = {"state": row.state, "failure_reason": row.failure_reason,
-                                         "folder": row.folder}
-                    report.skipped += 1
-                    total -= 1
-                    continue
-                if dep is not None:
-                    if dep["state"] not in SUCCESS_STATES:
-                        record = ex.fail(ex.base_record(task.spec), "dependency",
-                                         f"dependency {task.depends_on[2]!r} {dep['state']}"
-                                         + (f" ({dep['failure_reason']})" if dep["failure_reason"] else ""))
-                        record["finished"] = ex.now_iso()
-                        finish(record, task)
-                        continue
-                    task.spec["dependency_folder"] = dep["folder"]
-                elif task.dependency_folder:
-                    task.spec["dependency_folder"] = task.dependency_folder
-                in_flight = ex.base_record(task.spec)
-                in_flight["started"] = ex.now_iso()
-                store_record(in_flight)
-                running[pool.submit(task.spec)] = task
-                _started(task, started, done_count, total, durations, pool.slots, out)
-            if not running:
-                if pending and not submitted:
-                    time.sleep(0.2)  # every remaining run is held by another process
+    def dependency(self, task: Task) -> tuple[bool, dict | None]:
+        """(whether ``task`` can start now, the result of the run it depends on or None)."""
+        if task.depends_on is None:
+            return True, None
+        dep = self.results.get(task.depends_on)
+        if dep is None and task.depends_on in self.planned:
+            return False, None  # its dependency has not finished yet
+        return True, dep if dep is not None else {"state": "not_executed", "failure_reason": ""}
+
+    def submit_ready(self) -> bool:
+        """Start the pending runs whose dependency is done and that no other process holds, while the pool
+        has free slots; whether any pending run was taken up."""
+        submitted = False
+        for task in list(self.pending):
+            if len(self.running) >= self.pool.slots:
+                break
+            ready, dep = self.dependency(task)
+            if not ready:
                 continue
-            for future in pool.wait_any(running):
-                task = running.pop(future)
-                try:
-                    record = future.result()
-                except Exception as exc:  # noqa: BLE001 - a harness bug in one run must not stop the rest
-                    record = ex.fail(ex.base_record(task.spec), "post_processing",
-                                     f"harness error: {type(exc).__name__}: {exc}")
-                    record["finished"] = ex.now_iso()
-                finish(record, task)
-    except KeyboardInterrupt:
+            claim = _claim(task, self.options, self.waiting, self.out)
+            if claim == "busy":
+                continue
+            self.pending.remove(task)
+            submitted = True
+            if claim == "done":
+                self.done_elsewhere(task)
+            elif dep is not None and dep["state"] not in SUCCESS_STATES:
+                record = ex.fail(ex.base_record(task.spec), "dependency",
+                                 f"dependency {task.depends_on[2]!r} {dep['state']}"
+                                 + (f" ({dep['failure_reason']})" if dep["failure_reason"] else ""))
+                record["finished"] = ex.now_iso()
+                self.finish(record, task)
+            else:
+                self.submit(task, dep)
+        return submitted
+
+    def done_elsewhere(self, task: Task) -> None:
+        """A run another process finished meanwhile: its stored result stands for it (not run again)."""
+        from harness.models import Run  # the store's models load once Django is set up (harness.store)
+
+        row = Run.objects.get(build_id=task.spec["build"]["id"], machine__name=task.spec["machine"],
+                              testcase__path=task.spec["testcase"], name=task.spec["run"],
+                              testcase_hash=task.spec["testcase_hash"])
+        self.results[task.key] = {"state": row.state, "failure_reason": row.failure_reason, "folder": row.folder}
+        self.report.skipped += 1
+        self.total -= 1
+
+    def submit(self, task: Task, dep: dict | None) -> None:
+        """Record the run as started and hand it to the pool (in the folder of the run it depends on)."""
+        from harness.records import store_record  # reads the store: Django is set up by the caller (harness.store)
+
+        if dep is not None:
+            task.spec["dependency_folder"] = dep["folder"]
+        elif task.dependency_folder:
+            task.spec["dependency_folder"] = task.dependency_folder
+        in_flight = ex.base_record(task.spec)
+        in_flight["started"] = ex.now_iso()
+        store_record(in_flight)
+        self.running[self.pool.submit(task.spec)] = task
+        _started(task, self.started, self.done_count, self.total, self.durations, self.pool.slots, self.out)
+
+    def collect(self) -> None:
+        """Wait for at least one running run and store what came back."""
+        for future in self.pool.wait_any(self.running):
+            task = self.running.pop(future)
+            try:
+                record = future.result()
+            except Exception as exc:  # noqa: BLE001 - a harness bug in one run must not stop the rest
+                record = ex.fail(ex.base_record(task.spec), "post_processing",
+                                 f"harness error: {type(exc).__name__}: {exc}")
+                record["finished"] = ex.now_iso()
+            self.finish(record, task)
+
+    def interrupted(self) -> None:
+        """Ctrl-C: stop the engines and record the runs in flight as interrupted."""
+        from harness.records import store_record  # reads the store: Django is set up by the caller (harness.store)
+
         # a second Ctrl-C (or SIGTERM) must not cut the recording of the runs in flight short
         previous = {sig: signal.signal(sig, signal.SIG_IGN) for sig in (signal.SIGINT, signal.SIGTERM)} \
             if threading.current_thread() is threading.main_thread() else {}
         try:
-            out.write("harness: interrupted: stopping the engines and recording the runs in flight "
-                      "(further Ctrl-C is ignored until that is done)\n")
-            out.flush()
+            self.out.write("harness: interrupted: stopping the engines and recording the runs in flight "
+                           "(further Ctrl-C is ignored until that is done)\n")
+            self.out.flush()
             ex.kill_all_running()
-            pool.cancel(running)
-            pool.close()  # let the local workers see their engines die and stop before the records are written
-            for task in running.values():
+            self.pool.cancel(self.running)
+            self.pool.close()  # let the local workers see their engines die and stop before the records are written
+            for task in self.running.values():
                 record = ex.fail(ex.base_record(task.spec), "interrupted", "the harness was interrupted")
                 record["finished"] = ex.now_iso()
                 ex.write_record(record)
@@ -484,16 +528,10 @@ def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out
                     store_record(record)
                 finally:
                     _release(task)
-                report.records.append(record)
+                self.report.records.append(record)
         finally:
             for sig, handler in previous.items():
                 signal.signal(sig, handler)
-        raise
-    finally:
-        pool.close()
-        ex.clear_interrupt()
-        for task in tasks:
-            _release(task)
 
 
 def run_targets(targets: list[TargetDefinition], options: RunOptions, out=None) -> RunReport:
