@@ -121,7 +121,7 @@ def find_build(target: TargetDefinition, machine_name: str, info: dict | None = 
 def failed_build(target: TargetDefinition, machine_name: str):
     """The stored failed build (not an interrupted one) of the commit ``target``'s revision resolves to now,
     or None; it becomes current unless the revision was given on the command line (``TARGET@REV``). Its runs
-    are recorded failed with reason ``BUILD_FAILED`` (``record_build_failure``) and JUnit shows it as the
+    are recorded failed with reason ``BUILD_FAILED`` (``harness.coverage.record_build_failure``) and JUnit shows it as the
     failing test case ``build`` (``harness.junit.build_failure_suite``)."""
     from harness.models import Build
 
@@ -133,17 +133,6 @@ def failed_build(target: TargetDefinition, machine_name: str):
     if not target.explicit_revision:
         make_current(build)
     return build
-
-
-def record_build_failure(target: TargetDefinition, build, machine_name: str, pattern: str | None = None,
-                         working_tree: bool = False):
-    """Record every selected run configuration of ``target`` that has no row at the failed ``build`` as
-    failed with reason ``BUILD_FAILED`` and the build's first error line (``harness.coverage``): the runs
-    were never executed (no start time, no run folder) and fail the gate, whatever ``--allow-missing``."""
-    from harness.coverage import record_selection
-
-    return record_selection(target, build, machine_name, pattern, working_tree,
-                            missing=(BUILD_FAILED, (build.details or {}).get("error") or "build failed"))
 
 
 def current_build(target_name: str, machine_name: str):

@@ -20,8 +20,8 @@ from pathlib import Path
 from harness import junit
 from harness.adapters.base import UserError
 from harness.junit import provenance  # noqa: F401  (what a verdict was computed on; the dashboard shows it)
-from harness.builds import failed_build, failure_message, record_build_failure, record_current_build
-from harness.coverage import covered_runs, earlier_content_run, record_selection, selected
+from harness.builds import failed_build, failure_message, record_current_build
+from harness.coverage import covered_runs, earlier_content_run, record_build_failure, record_selection, selected
 from harness.consistency import QuantityResult, compare_runs, run_level
 from harness.rules import WHOLE_RUN, gate_status, override_for, quantity_fails
 

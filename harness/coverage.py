@@ -25,6 +25,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from harness import execute as ex
+from harness.adapters import get_adapter
+from harness.adapters.base import UserError
+from harness.builds import BUILD_FAILED
+from harness.planning import build_info, make_spec
+from harness.records import store_record
+from harness.testcases import CONFIG_RUN, discover, matches
+
 
 @dataclass
 class Selection:
@@ -39,18 +47,12 @@ class Selection:
 def selected(pattern: str | None, path: str, name: str) -> bool:
     """Whether ``-k pattern`` selects run ``name`` of test case ``path``; a broken run.config (the pseudo run
     ``run.config``) is selected by its test case path, as ``harness run`` plans it."""
-    from harness.testcases import CONFIG_RUN, matches
-
     return matches(pattern, path, name) or (name == CONFIG_RUN and matches(pattern, path, ""))
 
 
 def selection(target, pattern: str | None = None, working_tree: bool = False, discovered=None):
     """The run configurations ``target`` selects now (None: its test cases cannot be read); ``discovered``:
     the (test cases, problems) of ``harness.testcases.discover`` when the caller has them already."""
-    from harness.adapters import get_adapter
-    from harness.adapters.base import UserError
-    from harness.testcases import discover
-
     if discovered is None:
         try:
             discovered = discover(target, get_adapter(target.engine), working_tree)
@@ -79,17 +81,13 @@ def record_selection(target, build, machine: str, pattern: str | None = None, wo
 
     ``missing``: (failure reason, message) to record the run configurations without a row as failed with,
     instead of not executed - e.g. the runs of a build that failed, which can never execute."""
-    from harness import execute as ex
-    from harness.adapters import get_adapter
-    from harness.models import Run
-    from harness.records import store_record
-    from harness.runner import _build_info, make_spec
+    from harness.models import Run  # the store's models load once Django is set up (harness.store)
 
     chosen, specs = selection(target, pattern, working_tree, discovered)
     if chosen is None:
         return None
     adapter = get_adapter(target.engine)
-    info = _build_info(build)
+    info = build_info(build)
     live = {(r.testcase.path, r.name, r.testcase_hash): r for r in
             Run.objects.filter(machine__name=machine, build=build, replaced=False).select_related("testcase")}
     for testcase, entry in specs:
@@ -115,6 +113,14 @@ def record_selection(target, build, machine: str, pattern: str | None = None, wo
         if (path, name) not in chosen.content and selected(pattern, path, name):
             Run.objects.filter(pk=row.pk).update(state=Run.State.OUTDATED, replaced=True)
     return chosen
+
+
+def record_build_failure(target, build, machine_name: str, pattern: str | None = None, working_tree: bool = False):
+    """Record every selected run configuration of ``target`` that has no row at the failed ``build`` as
+    failed with reason ``BUILD_FAILED`` and the build's first error line: the runs were never executed (no
+    start time, no run folder) and fail the gate, whatever ``--allow-missing``."""
+    return record_selection(target, build, machine_name, pattern, working_tree,
+                            missing=(BUILD_FAILED, (build.details or {}).get("error") or "build failed"))
 
 
 def covered_runs(machine_id: int | None = None, target_id: int | None = None, build=None, machine: str | None = None):

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import hashlib
 import os
-import shlex
 import signal
 import sys
 import threading
@@ -22,10 +21,11 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from harness import execute as ex
-from harness import scaling
 from harness.adapters import get_adapter
-from harness.adapters.base import UserError, with_open_mpi_flags
-from harness.builds import BuildError, build_target, failed_build, record_build_failure
+from harness.adapters.base import UserError
+from harness.builds import BuildError, build_target, failed_build
+from harness.coverage import record_build_failure, record_selection, selected
+from harness.planning import build_info, make_spec
 from harness.rules import SUCCESS_STATES, effective_state
 from harness.targets import TargetDefinition
 from harness.testcases import RunEntry, TestCaseSpec, discover
@@ -74,63 +74,6 @@ class RunReport:
         return [r for r in self.records if r["state"] == "failed"]
 
 
-def mpi_prefix(target: TargetDefinition, config: dict) -> list[str] | None:
-    """Launcher prefix for mpi runs (thesis listing 4.3: ``mpirun -np 4``), None for serial runs.
-
-    Open MPI refuses to start as root and to place more ranks than cores; in a container (root, few cores)
-    ``--allow-run-as-root`` and ``--oversubscribe`` are added, and only then
-    (``harness.adapters.base.with_open_mpi_flags``).
-    """
-    run_type = config.get("type", "serial")
-    if run_type == "serial":
-        return None
-    launcher = list(target.mpi_launcher)
-    if run_type == "mpi/custom":
-        options = config.get("mpi_options", [])
-        return with_open_mpi_flags(
-            launcher + (shlex.split(options) if isinstance(options, str) else [str(o) for o in options]))
-    return with_open_mpi_flags(launcher + ["-np", str(int(config["nprocs"]))])
-
-
-def run_folder(machine: str, target: str, build_key: str, testcase: str, run: str, testcase_hash: str) -> Path:
-    """``runs/<machine>/<target>/<commit>-<definition>/<test case>/<run>.<content hash>/``: a folder per
-    build and test case content, so no later run overwrites an earlier revision's files."""
-    return workspace().runs / machine / target / build_key / testcase / f"{run}.{testcase_hash[:8]}"
-
-
-def _build_info(build) -> dict:
-    import json
-
-    return {"id": build.id, "key": build.key, "commit": build.commit, "revision": build.revision,
-            "definition_hash": build.definition_hash, "executable": json.loads(build.executable or "[]"),
-            "environment": build.environment or {}, "folder": build.folder,
-            "committed_at": build.committed_at.isoformat() if build.committed_at else None,
-            "commit_message": build.commit_message}
-
-
-def make_spec(target: TargetDefinition, build_info: dict, adapter, machine: str, testcase: TestCaseSpec,
-              entry: RunEntry) -> dict:
-    config = entry.config
-    mapping = dict(target.thermo_columns)
-    mapping.update(config.get("thermo_columns") or {})
-    variables = {str(k): v for k, v in (config.get("variables") or {}).items()}
-    content = testcase.content_hash(entry.name)
-    spec = {
-        "machine": machine, "target": target.name, "target_definition": target.as_dict(),
-        "build": build_info, "testcase": testcase.path, "run": entry.name, "testcase_hash": content,
-        "config": config, "adapter": adapter.name, "thermo_columns": mapping,
-        "environment": {**build_info["environment"], **scaling.thread_environment(config)},
-        "workspace": str(workspace().home),
-        "folder": str(run_folder(machine, target.name, build_info["key"], testcase.path, entry.name, content)),
-        "source_folder": str(testcase.folder), "files": testcase.files(), "timeout": entry.timeout,
-        "command": [],
-    }
-    if entry.script is not None and not entry.problems:
-        spec["command"] = adapter.command(build_info["executable"], entry.script, variables, adapter.log_file(),
-                                          mpi_prefix(target, config))
-    return spec
-
-
 def _needs_run(existing, options: RunOptions) -> bool:
     if existing is None or options.rerun_all:
         return True
@@ -163,7 +106,6 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
     """Build the target, discover its test cases and choose the runs to execute."""
     from harness.models import Run
 
-    from harness.coverage import record_selection, selected
 
     try:
         build = _build_in_use(target, options, report, say)
@@ -180,7 +122,7 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
     record_selection(target, build, options.machine, options.pattern, options.working_tree,
                      discovered=(testcases, problems))
     report.problems.extend(problems)
-    info = _build_info(build)
+    info = build_info(build)
     # a run is the same run only at the same test case content: an edited scene is run again
     existing = {(r.testcase.path, r.name, r.testcase_hash): r for r in
                 Run.objects.filter(machine__name=options.machine, build=build).select_related("testcase")}

@@ -83,7 +83,7 @@ def is_open_mpi(launcher: str) -> bool:
 
 def with_open_mpi_flags(mpi: list[str]) -> list[str]:
     """The launcher prefix ``mpi`` (``["mpirun", "-np", "4"]``) with the flags Open MPI needs in a container,
-    added only where needed - the one place they are added (``harness.runner.mpi_prefix`` calls it):
+    added only where needed - the one place they are added (``harness.planning.mpi_prefix`` calls it):
 
     - ``--allow-run-as-root``: Open MPI refuses to start as root (uid 0, usual in containers and CI);
     - ``--oversubscribe``: Open MPI refuses ``-np`` above the number of cores it detects.
@@ -190,7 +190,7 @@ class EngineAdapter:
         ``[MPI PREFIX] EXECUTABLE -in SCRIPT -var NAME VALUE ... -log LOG``.
 
         ``mpi`` is the launcher prefix (e.g. ``["mpirun", "-np", "4"]``, with its Open MPI flags already
-        added by ``harness.runner.mpi_prefix``) for mpi runs, else None.
+        added by ``harness.planning.mpi_prefix``) for mpi runs, else None.
         """
         command = list(mpi or []) + list(executable) + ["-in", script]
         for name, value in (variables or {}).items():

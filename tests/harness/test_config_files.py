@@ -139,7 +139,7 @@ def test_k_pattern_matching():
 
 
 def test_mpi_launcher_prefix(tmp_path, monkeypatch):
-    from harness import runner
+    from harness import planning as runner
     from harness.adapters import base
     from harness.targets import parse_target
 
