@@ -139,20 +139,20 @@ def test_k_pattern_matching():
 
 
 def test_mpi_launcher_prefix(tmp_path, monkeypatch):
-    from harness import planning as runner
+    from harness import planning
     from harness.adapters import base
     from harness.targets import parse_target
 
     target = parse_target("t", {"mpi_launcher": ["mpiexec"]}, tmp_path / "targets" / "t.json")
     monkeypatch.setattr(base, "is_open_mpi", lambda launcher: False)
-    assert runner.mpi_prefix(target, {"type": "serial"}) is None
-    assert runner.mpi_prefix(target, {"type": "mpi", "nprocs": 4}) == ["mpiexec", "-np", "4"]
-    assert runner.mpi_prefix(target, {"type": "mpi/custom", "mpi_options": "-np 2 --bind-to core"}) == \
+    assert planning.mpi_prefix(target, {"type": "serial"}) is None
+    assert planning.mpi_prefix(target, {"type": "mpi", "nprocs": 4}) == ["mpiexec", "-np", "4"]
+    assert planning.mpi_prefix(target, {"type": "mpi/custom", "mpi_options": "-np 2 --bind-to core"}) == \
         ["mpiexec", "-np", "2", "--bind-to", "core"]
     monkeypatch.setattr(base, "is_open_mpi", lambda launcher: True)
     monkeypatch.setattr(base.os, "geteuid", lambda: 0)
     monkeypatch.setattr(base.os, "cpu_count", lambda: 2)
-    assert runner.mpi_prefix(target, {"type": "mpi", "nprocs": 4}) == \
+    assert planning.mpi_prefix(target, {"type": "mpi", "nprocs": 4}) == \
         ["mpiexec", "--allow-run-as-root", "--oversubscribe", "-np", "4"]
     monkeypatch.setattr(base.os, "geteuid", lambda: 1000)
-    assert runner.mpi_prefix(target, {"type": "mpi", "nprocs": 2}) == ["mpiexec", "-np", "2"]
+    assert planning.mpi_prefix(target, {"type": "mpi", "nprocs": 2}) == ["mpiexec", "-np", "2"]
