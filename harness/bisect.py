@@ -106,6 +106,7 @@ def bisect(target, good: str, bad: str, machine: str, pattern: str | None = None
 def _run(target, commit: str, options: RunOptions, say):
     """Build and run ``target`` at ``commit``; its build, or None when it cannot be built (its failed build
     is stored, ``harness.builds``: a second bisect over the same commits does not build it again)."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Build
 
     pinned = at_revision(target, commit)
@@ -119,6 +120,7 @@ def _run(target, commit: str, options: RunOptions, say):
 
 def _build_error(target, commit: str, machine: str) -> str:
     """The first error line of the stored failed build of ``target`` at ``commit`` (or a placeholder)."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Build
 
     build = (Build.objects.filter(target__name=target.name, machine__name=machine, commit=commit,

@@ -27,6 +27,7 @@ from harness import gitrepo
 from harness.adapters.base import UserError
 from harness.targets import TargetDefinition
 from harness.workspace import workspace
+from harness.rules import restored_state
 
 DONE_MARKER = "done"
 #: failure reason of the runs of a target whose build failed (they are not executed)
@@ -42,6 +43,7 @@ def _now():
 
 
 def ensure_machine(name: str):
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Machine
 
     return Machine.objects.get_or_create(name=name)[0]
@@ -49,6 +51,7 @@ def ensure_machine(name: str):
 
 def ensure_target(target: TargetDefinition):
     """The store's row for a target definition (created or updated), linked to its reference's row."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Target
 
     row, _ = Target.objects.get_or_create(name=target.name)
@@ -91,10 +94,11 @@ def make_current(build) -> None:
     earlier switch made outdated come back (a revision built again is current again, its results valid),
     except those a newer run of the same test case content replaced (``harness.records.store_record``).
     """
+    # the store's models (Django) load once Django is set up (harness.store)
     from django.db import transaction
 
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Build, Run
-    from harness.rules import restored_state
 
     with transaction.atomic():
         siblings = Build.objects.filter(target_id=build.target_id, machine_id=build.machine_id)
@@ -111,6 +115,7 @@ def make_current(build) -> None:
 
 def find_build(target: TargetDefinition, machine_name: str, info: dict | None = None):
     """The complete build of the commit ``target``'s revision resolves to now, or None."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Build
 
     info = info or resolve_commit(target)
@@ -123,6 +128,7 @@ def failed_build(target: TargetDefinition, machine_name: str):
     or None; it becomes current unless the revision was given on the command line (``TARGET@REV``). Its runs
     are recorded failed with reason ``BUILD_FAILED`` (``harness.coverage.record_build_failure``) and JUnit shows it as the
     failing test case ``build`` (``harness.junit.build_failure_suite``)."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Build
 
     info = resolve_commit(target)
@@ -138,6 +144,7 @@ def failed_build(target: TargetDefinition, machine_name: str):
 def current_build(target_name: str, machine_name: str):
     """The recorded current build of a target on a machine (complete), or None. Reads the store only: no
     git command, nothing written - the dashboard and every reader of the store ask this."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Build
 
     return Build.objects.filter(target__name=target_name, machine__name=machine_name, current=True,
@@ -170,6 +177,7 @@ def build_target(target: TargetDefinition, machine_name: str, force: bool = Fals
     BuildError; asking again gives the stored failure without building, unless ``force`` (or the failed
     attempt was interrupted). A failed build of the revision becomes current as a complete one does.
     """
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Build, Run
 
     say = log or (lambda text: None)
@@ -273,6 +281,7 @@ def first_error_line(log: str) -> str | None:
 
 
 def _run_recipe(target: TargetDefinition, build, info: dict, folder: Path, say, jobs: int | None) -> None:
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Build
 
     say(f"building {target.name} at {info['commit'][:12]} ({target.recipe})")

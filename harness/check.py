@@ -70,8 +70,10 @@ def _overrides(run) -> dict[str, str]:
 def check_run(run, reference_target: str | None) -> list[QuantityResult]:
     """Score one run against its reference run (same test case content) and store the results; [] when it
     cannot be checked."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from django.db import transaction
 
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import ConsistencyResult, Run
 
     if run.state not in ("post_processed", "consistency_checked") or not reference_target:

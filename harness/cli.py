@@ -22,10 +22,12 @@ from pathlib import Path
 from harness import textout
 from harness.adapters.base import UserError
 from harness.workspace import Workspace, segment_problem, use_workspace, workspace
+import threading
+from importlib.metadata import PackageNotFoundError, version
+import harness.commands as package
 
 
 def _commands():
-    import harness.commands as package
 
     found = []
     for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda i: i.name):
@@ -68,7 +70,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
 
     try:
         return version("dem-harness")
@@ -146,6 +147,7 @@ def _fault_line(exc: BaseException) -> str | None:
     written (a Django DatabaseError: read-only, full disk, server down), or a file cannot be read or written
     (an OSError). None for anything else (a bug, shown with its traceback)."""
     if "django.db" in sys.modules:
+        # the store's models (Django) load once Django is set up (harness.store)
         from django.db import DatabaseError
 
         if isinstance(exc, DatabaseError):
@@ -159,6 +161,7 @@ def _fault_line(exc: BaseException) -> str | None:
 def _store_name() -> str:
     """The SQLite file, or ENGINE HOST:PORT/NAME of a database server (never its password)."""
     try:
+        # the store's models (Django) load once Django is set up (harness.store)
         from django.conf import settings
 
         database = settings.DATABASES["default"]
@@ -171,7 +174,6 @@ def _store_name() -> str:
 
 
 def _in_main_thread() -> bool:
-    import threading
 
     return threading.current_thread() is threading.main_thread()
 

@@ -23,6 +23,7 @@ import numpy as np
 
 from harness.consistency import compare_runs, run_level
 from harness.rules import SUCCESS_STATES, effective_state
+from harness.testcases import matches
 
 FAILING_OUTCOMES = ("new_failure", "inconsistent")
 
@@ -137,6 +138,7 @@ class RunRow:
         if name.startswith("_"):
             raise AttributeError(name)
         if name == "model":
+            # the store's models (Django) load once Django is set up (harness.store)
             from harness.models import Run
 
             self.model = Run.objects.get(pk=self.id)
@@ -162,6 +164,7 @@ def run_rows(runs, *extra: str) -> list[RunRow]:
 
 def attach_series(rows: list[RunRow], chunk: int = 500) -> None:
     """Read the data series and the run.config of ``rows`` in a few queries (``chunk`` runs each)."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Run, Series
 
     by_id = {row.pk: row for row in rows}
@@ -234,8 +237,8 @@ def compare_pair(a, b) -> PairComparison:
 def compare_builds(build_a, build_b, machine: str, label_a: str, label_b: str, pattern: str | None = None
                    ) -> Comparison:
     """Pair and compare the runs of two builds on ``machine`` (``pattern``: ``-k`` selection)."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Run
-    from harness.testcases import matches
 
     def runs_of(build):
         found = {}

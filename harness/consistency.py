@@ -29,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from harness.postprocess import is_number
 
 PERFECT, GOOD, INCONSISTENT = "perfect", "good", "inconsistent"
 LENGTH_MISMATCH, MISSING = "length_mismatch", "missing"
@@ -143,7 +144,6 @@ def compare_trajectory(kind: str, name: str, quantity: str, x_ref, y_ref, x, y,
 
 def compare_words(name: str, ref_words: list[str], words: list[str], settings: dict | None = None) -> QuantityResult:
     """A text file word by word: words equal, numbers within eps = max(rtol |ref|, atol) (thesis 4.4.3)."""
-    from harness.postprocess import is_number
 
     settings = settings or {}
     rtol, atol = float(settings.get("rtol", 0.1)), float(settings.get("atol", 1e-12))

@@ -128,8 +128,10 @@ def covered_runs(machine_id: int | None = None, target_id: int | None = None, bu
     other content) of each target's current build - or of ``build`` - on each machine (optionally one machine
     and target). After ``record_selection`` these are exactly the selected run configurations. ``harness check``, ``ci``, both
     JUnit writers and the dashboard's overview and pages read this set."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from django.db.models import Prefetch
 
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import ConsistencyResult, Override, Run
 
     runs = Run.objects.current(build)
@@ -149,6 +151,7 @@ def covered_runs(machine_id: int | None = None, target_id: int | None = None, bu
 def earlier_content_run(run):
     """The newest finished run of the same build, test case and run name at other (earlier) test case
     content, when ``run`` is a not-executed row that took its place (None otherwise): the run is stale."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Run
 
     if run.state != "not_executed":
@@ -161,6 +164,7 @@ def earlier_content_run(run):
 def failed_current_builds(machine_id: int | None = None, target_id: int | None = None):
     """The current builds that failed (optionally of one machine and target): the targets whose revision does
     not build. Both JUnit writers add one failing test case ``build`` for each (``harness.junit``)."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Build
 
     builds = Build.objects.filter(current=True, status=Build.Status.FAILED).select_related("target", "machine")

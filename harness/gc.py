@@ -18,6 +18,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from harness.workspace import workspace
+from harness.profiles import PERF_DATA
+import hashlib
+from filelock import Timeout
 
 
 @dataclass
@@ -48,8 +51,10 @@ def kept_builds(builds, keep_builds: int) -> set[int]:
 
 def collect(keep_builds: int = 2, dry_run: bool = False, machine: str | None = None) -> Collection:
     """Remove (or, with ``dry_run``, list) the folders the policy lets go; ``machine`` limits it to one."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from django.db.models import Q
 
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Build, Run
 
     ws = workspace()
@@ -111,13 +116,11 @@ def collect(keep_builds: int = 2, dry_run: bool = False, machine: str | None = N
 
 def _run_lock(ws, folder: str):
     """The lock ``harness run`` holds on a run folder while it runs it (``harness.runner._run_lock``)."""
-    import hashlib
 
     return ws.lock(f"run-{hashlib.sha1(folder.encode()).hexdigest()[:20]}", timeout=0)
 
 
 def _try(lock) -> bool:
-    from filelock import Timeout
 
     try:
         lock.acquire(timeout=0)
@@ -142,8 +145,8 @@ def collect_profiles(dry_run: bool = False, machine: str | None = None) -> Colle
     Raw samples are what ``perf report`` needs and can be hundreds of MB; only the current build's are kept.
     Returned in ``run_folders``: the perf.data files removed.
     """
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Run
-    from harness.profiles import PERF_DATA
 
     ws = workspace()
     out = Collection()

@@ -22,6 +22,12 @@ import csv
 import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from harness.check import series_of
+from harness.consistency import compare_runs
+from harness.rules import SUCCESS_STATES
+from harness.runrecord import finite
+from harness.testcases import matches
+from harness.textout import format_table
 
 #: thermo quantities shown in the matrix (others the codes print under different names are not comparable)
 QUANTITIES = ("ke", "rke", "atoms")
@@ -64,9 +70,8 @@ class Matrix:
 
 
 def _successful_runs(build, machine: str, pattern: str | None) -> dict:
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Run
-    from harness.rules import SUCCESS_STATES
-    from harness.testcases import matches
 
     runs = (Run.objects.filter(build=build, machine__name=machine, replaced=False, state__in=SUCCESS_STATES)
             .select_related("testcase", "build").prefetch_related("series"))
@@ -77,8 +82,6 @@ def build_matrix(builds: dict, machine: str, pattern: str | None = None,
                  quantities: tuple[str, ...] = QUANTITIES) -> Matrix:
     """C of every target's run against every other target's run of the same test case content; ``builds``
     maps each target name, in the matrix's order, to its current build on ``machine`` (or None)."""
-    from harness.check import series_of
-    from harness.consistency import compare_runs
 
     matrix = Matrix(list(builds))
     found = {}
@@ -126,7 +129,6 @@ def _short(level: str) -> str:
 def format_matrix(matrix: Matrix) -> str:
     """One square table per (test case, run, quantity): rows the scored code, columns the reference;
     ``C level`` (P perfect >= 0.95, G good >= 0.9, I inconsistent, L length mismatch, M missing)."""
-    from harness.runner import format_table
 
     blocks = []
     names = matrix.targets
@@ -167,7 +169,6 @@ def write_csv(matrix: Matrix, path: Path) -> None:
 
 
 def to_json(matrix: Matrix) -> dict:
-    from harness.runrecord import finite
 
     return finite({"targets": matrix.targets, "problems": matrix.problems,
                    "runs": [{"testcase": t, "run": r, "targets": present}

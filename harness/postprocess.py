@@ -144,6 +144,7 @@ def dump_step(path: Path) -> int | None:
 
 def read_vtk_points(path: Path) -> dict[str, np.ndarray]:
     """Points and point data arrays of a ``.vtp`` (XML PolyData) or legacy ``.vtk`` file."""
+    # a heavy library, loaded when this runs, not at every `harness` start
     import vtk
     from vtk.util.numpy_support import vtk_to_numpy
 

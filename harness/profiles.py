@@ -26,6 +26,7 @@ import shutil
 import subprocess
 from collections import Counter
 from pathlib import Path
+from harness.breakdown import section_seconds
 
 FOLDED_FILE = "profile.folded"
 PERF_DATA = "perf.data"
@@ -172,7 +173,6 @@ def fold_perf_data(folder: Path, data: str = PERF_DATA, timeout: float = 600) ->
 
 def phase_stacks(breakdown: dict) -> Counter:
     """The bundled engine's profile: its phase timers as folded stacks, in microseconds (``run;pair`` ...)."""
-    from harness.breakdown import section_seconds
 
     return Counter({f"run;{section}": int(round(seconds * 1e6))
                     for section, seconds in section_seconds(breakdown).items() if seconds > 0})

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 from harness.compare import scored, attach_series, compare_pair, run_rows
 from harness.rules import SUCCESS_STATES, effective_state, relative_spread
+from harness.testcases import matches
 
 
 @dataclass
@@ -68,8 +69,8 @@ def comparable(found: list[History]) -> int:
 def histories(machine: str, target: str | None = None, pattern: str | None = None, k: float = 3.0,
               window: int = 5, min_change: float = 0.1) -> list[History]:
     """The history of every run configuration (of ``target``, matching ``pattern``) with its changes."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Run
-    from harness.testcases import matches
 
     runs = (Run.objects.filter(machine__name=machine, replaced=False).exclude(build__committed_at=None)
             .order_by("target__name", "testcase__path", "name", "testcase_hash", "build__committed_at", "build_id"))
@@ -130,6 +131,7 @@ def build_times(machine: str, target: str | None = None) -> list[BuildTime]:
     """Every build of ``target`` (all targets) on ``machine`` with its build time, ordered by commit date -
     failed builds too, which have no runs and so no history above. The time is the recipe's (export,
     configure, compile, link); a build through a warm ccache shows as a drop."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Build
 
     builds = (Build.objects.filter(machine__name=machine).exclude(target__definition__recipe="system")

@@ -25,12 +25,16 @@ from harness.adapters import get_adapter
 from harness.adapters.base import UserError
 from harness.builds import BuildError, build_target, failed_build
 from harness.coverage import record_build_failure, record_selection, selected
+from harness.records import store_record
 from harness.planning import build_info, make_spec
 from harness.rules import SUCCESS_STATES, effective_state
 from harness.targets import TargetDefinition
 from harness.testcases import RunEntry, TestCaseSpec, discover
 from harness.textout import format_table  # noqa: F401  (the commands import it from here)
 from harness.workspace import workspace
+from filelock import Timeout
+from harness import profiles
+from harness.builds import DONE_MARKER
 
 
 @dataclass
@@ -88,7 +92,6 @@ def _needs_run(existing, options: RunOptions) -> bool:
 def _build_in_use(target: TargetDefinition, options: RunOptions, report: RunReport, say):
     """Build (or find) the target's build and hold its use lock: once held, ``harness gc`` leaves the build
     and its run folders alone; a build gc removed just before is built again."""
-    from harness.builds import DONE_MARKER
 
     force = options.force_build
     while True:
@@ -104,6 +107,7 @@ def _build_in_use(target: TargetDefinition, options: RunOptions, report: RunRepo
 
 def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport, say) -> list[Task]:
     """Build the target, discover its test cases and choose the runs to execute."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Run
 
 
@@ -139,7 +143,6 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
         if options.repeat > 1:
             spec["repeat"] = options.repeat
         if (options.profile or entry.config.get("profile")) and not entry.problems:
-            from harness import profiles
 
             profiles.enable(spec, adapter, entry.config.get("profile"))
         previous = existing.get((testcase.path, entry.name, spec["testcase_hash"]))
@@ -198,6 +201,7 @@ class _Pool:
         self.client = None
         if scheduler:
             try:
+                # a heavy library, loaded when this runs, not at every `harness` start
                 from distributed import Client
             except ImportError:
                 raise UserError("--scheduler needs the 'distributed' package (pip install 'dask[distributed]')") \
@@ -218,6 +222,7 @@ class _Pool:
 
     def wait_any(self, futures):
         if self.client is not None:
+            # a heavy library, loaded when this runs, not at every `harness` start
             from distributed import wait
 
             return wait(list(futures), return_when="FIRST_COMPLETED").done
@@ -256,8 +261,8 @@ def _run_lock(task: Task):
 def _claim(task: Task, options: RunOptions, waiting: set, out) -> str:
     """Take a run's lock without waiting: ``"claimed"``, ``"busy"`` (another process runs it) or ``"done"``
     (another process finished it while this one waited, and it need not run again)."""
-    from filelock import Timeout
 
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.models import Run
 
     try:
@@ -362,8 +367,6 @@ class _Execution:
 
     def finish(self, record: dict, task: Task | None = None) -> None:
         """Store a run's record (releasing its claim) and show the progress."""
-        from harness.records import store_record  # reads the store: Django is set up by the caller (harness.store)
-
         try:
             store_record(record)
         finally:
@@ -424,8 +427,6 @@ class _Execution:
 
     def submit(self, task: Task, dep: dict | None) -> None:
         """Record the run as started and hand it to the pool (in the folder of the run it depends on)."""
-        from harness.records import store_record  # reads the store: Django is set up by the caller (harness.store)
-
         if dep is not None:
             task.spec["dependency_folder"] = dep["folder"]
         elif task.dependency_folder:
@@ -450,8 +451,6 @@ class _Execution:
 
     def interrupted(self) -> None:
         """Ctrl-C: stop the engines and record the runs in flight as interrupted."""
-        from harness.records import store_record  # reads the store: Django is set up by the caller (harness.store)
-
         # a second Ctrl-C (or SIGTERM) must not cut the recording of the runs in flight short
         previous = {sig: signal.signal(sig, signal.SIG_IGN) for sig in (signal.SIGINT, signal.SIGTERM)} \
             if threading.current_thread() is threading.main_thread() else {}

@@ -7,6 +7,8 @@ store, possibly shared by several machines where a file lock protects nothing, u
 lock held on the server.
 """
 from __future__ import annotations
+from harness.workspace import workspace
+from filelock import Timeout
 
 #: name of the workspace lock held while migrating (harness.workspace.Workspace.lock)
 LOCK_NAME = "migrate"
@@ -22,6 +24,7 @@ class SchemaBehind(Exception):
 
 def pending_migrations(using: str = "default") -> list[str]:
     """``app.migration`` names this code has and the store has not applied, in the order they would run."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from django.db import connections
     from django.db.migrations.executor import MigrationExecutor
 
@@ -35,10 +38,9 @@ def ensure_schema(using: str = "default") -> list[str]:
 
     Raises SchemaBehind when another process holds the lock for longer than ``LOCK_TIMEOUT``.
     """
+    # the store's models (Django) load once Django is set up (harness.store)
     from django.db import connections
-    from filelock import Timeout
 
-    from harness.workspace import workspace
 
     if not pending_migrations(using):
         return []
@@ -54,6 +56,7 @@ def ensure_schema(using: str = "default") -> list[str]:
 
 
 def _migrate(using: str) -> list[str]:
+    # the store's models (Django) load once Django is set up (harness.store)
     from django.core.management import call_command
 
     # another process may have migrated while this one waited for the lock
@@ -64,6 +67,7 @@ def _migrate(using: str) -> list[str]:
 
 
 def _migrate_on_server(using: str) -> list[str]:
+    # the store's models (Django) load once Django is set up (harness.store)
     from django.db import connections
 
     with connections[using].cursor() as cursor:

@@ -30,6 +30,7 @@ SQLITE_OPTIONS = {"timeout": 120, "transaction_mode": "IMMEDIATE",
 def database_from_url(url: str) -> dict:
     """Django's DATABASES entry for a URL, parsed by dj-database-url: ``postgresql://user:pass@host:5432/db``,
     a Unix socket ``postgresql://user@/db?host=/run/postgresql``, or ``sqlite:////path/store.sqlite3``."""
+    # only a HARNESS_DATABASE_URL needs it
     import dj_database_url
 
     example = "postgresql://user@host:5432/dbname or sqlite:////path/store.sqlite3"

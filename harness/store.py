@@ -1,5 +1,6 @@
 """Open the store from outside Django (the CLI, scripts): configure settings once and migrate."""
 import os
+from harness.adapters.base import UserError
 
 _ready = False
 
@@ -14,10 +15,10 @@ def setup_store(migrate: bool = True) -> None:
     if _ready:
         return
     os.environ.setdefault("DJANGO_SETTINGS_MODULE", "harness.settings")
+    # the store's models (Django) load once Django is set up (harness.store)
     import django
     from django.core.exceptions import ImproperlyConfigured
 
-    from harness.adapters.base import UserError
 
     try:
         django.setup()
@@ -29,6 +30,7 @@ def setup_store(migrate: bool = True) -> None:
                             "installed (pip install -e '.[postgresql]')") from None
         raise UserError(f"store settings: {exc}") from None
     if migrate:
+        # the store's models (Django) load once Django is set up (harness.store)
         from harness.schema import SchemaBehind, ensure_schema
 
         try:

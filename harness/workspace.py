@@ -17,6 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from harness.adapters.base import UserError
+from filelock import FileLock
+import fcntl
 
 PROJECT_ROOT = Path(__file__).resolve().parent.parent
 
@@ -115,7 +117,6 @@ class Workspace:
 
     def lock(self, name: str, timeout: float = -1):
         """A cross-process lock ``locks/<name>.lock`` (``timeout`` s; -1 waits for ever, 0 tries once)."""
-        from filelock import FileLock
 
         self.locks.mkdir(parents=True, exist_ok=True)
         safe = re.sub(r"[^A-Za-z0-9_.=@+-]", "_", name)[:200]
@@ -138,7 +139,6 @@ class UseLock:
 
     def acquire(self, exclusive: bool = False, blocking: bool = True) -> bool:
         """Take the lock; False when ``blocking`` is off and another process holds it in a conflicting mode."""
-        import fcntl
 
         if self._fd is not None:
             return True

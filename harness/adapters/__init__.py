@@ -10,6 +10,8 @@ An adapter is looked up by the name given in a target definition's ``"engine"`` 
   an ``EngineAdapter`` subclass, the entry point's name is the engine name).
 """
 from harness.adapters.base import EngineAdapter, LogScan, UserError  # noqa: F401
+import importlib
+from importlib.metadata import entry_points
 
 #: entry-point group where other packages declare adapters (name -> EngineAdapter subclass)
 ENTRY_POINT_GROUP = "dem_harness.adapters"
@@ -27,8 +29,6 @@ def register(cls):
 
 def _load_builtins() -> None:
     # Import the built-in adapters lazily so that registration happens on first use.
-    import importlib
-
     for module in BUILTIN_MODULES:
         try:
             importlib.import_module(f"harness.adapters.{module}")
@@ -40,7 +40,6 @@ def _load_builtins() -> None:
 
 def _entry_point(name: str):
     """The adapter class another package declares under ``name`` in ``ENTRY_POINT_GROUP``, or None."""
-    from importlib.metadata import entry_points
 
     for point in entry_points(group=ENTRY_POINT_GROUP):
         if point.name != name:
@@ -59,7 +58,6 @@ def _entry_point(name: str):
 
 def known_adapters() -> list[str]:
     """Names of the built-in adapters and those declared through the entry-point group."""
-    from importlib.metadata import entry_points
 
     _load_builtins()
     names = set(_ADAPTERS) | {p.name for p in entry_points(group=ENTRY_POINT_GROUP)}
@@ -70,6 +68,7 @@ def get_adapter(name: str) -> EngineAdapter:
     """The adapter for a target's ``engine`` field (see the module docstring); UserError when unknown."""
     _load_builtins()
     if name.startswith(GENERIC_PREFIX):
+        # the adapter modules import this package (register): imported after it, as the built-ins are
         from harness.adapters.generic import GenericAdapter
 
         return GenericAdapter.from_file(name[len(GENERIC_PREFIX):])

@@ -12,8 +12,7 @@ import shutil
 import subprocess
 from dataclasses import dataclass, field
 from pathlib import Path
-
-import pandas as pd
+from harness.breakdown import from_timing
 
 
 class UserError(Exception):
@@ -156,6 +155,8 @@ class EngineAdapter:
         column of the table follows under its own name. Errors are ``UserError`` lines naming ``source``.
         Every adapter maps its thermo through here (the one home of the mapping).
         """
+        import pandas as pd  # pandas takes a quarter second to load: not for every `harness` start (UserError)
+
         columns = [str(c) for c in table.columns]
         table = table.copy()
         table.columns = columns
@@ -217,7 +218,6 @@ class EngineAdapter:
         """The timing breakdown in the harness' sections (``harness.breakdown``): pair, neighbor, communication,
         modify, output, other, with min/avg/max over ranks where the code prints them. By default the
         sections of ``read_timing`` (averages only); codes that print more override it."""
-        from harness.breakdown import from_timing
 
         return from_timing(self.read_timing(folder) if timing is None else timing)
 

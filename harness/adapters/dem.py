@@ -15,6 +15,8 @@ import pandas as pd
 
 from harness.adapters import register
 from harness.adapters.base import EngineAdapter, LogScan, LoopBlock, UserError
+from harness.acceptance import blowup_limit
+from harness.postprocess import dump_step
 
 TIMING_KEYS = ("pair", "neigh", "comm", "modify", "output", "other", "total")
 #: the engine's line after each run block (engine/runner.py): loop time, steps, particles, its rates
@@ -110,7 +112,6 @@ class DemAdapter(EngineAdapter):
     def run_environment(self, config: dict) -> dict[str, str]:
         """The run configuration's ``stability.blowup`` for the engine's own blow-up check (engine/blowup.py):
         ``false`` switches it off, ``{"max_overlap": X}`` sets the limit."""
-        from harness.acceptance import blowup_limit
 
         limit = blowup_limit(config)
         if limit is None:
@@ -118,7 +119,6 @@ class DemAdapter(EngineAdapter):
         return {"DEM_BLOWUP_MAX_OVERLAP": "off" if limit == math.inf else repr(float(limit))}
 
     def vtk_files(self, folder: Path) -> list[Path]:
-        from harness.postprocess import dump_step
 
         files = [p for p in (Path(folder) / "post").rglob("*.vtp")] if (Path(folder) / "post").is_dir() else []
         return sorted(files, key=lambda p: (p.parent.as_posix(), dump_step(p) or 0, p.name))

@@ -36,6 +36,8 @@ from pathlib import Path
 from harness.adapters import register
 from harness.adapters.base import UserError
 from harness.adapters.lammps_family import DUMP, LOOP_TIME, LammpsFamilyAdapter, erotate_compute_ids
+from harness.breakdown import add_block, imbalance_of_sections
+import shutil
 
 #: log file name the harness passes with ``-log`` (LAMMPS' own default is ``log.lammps`` too)
 LOG_NAME = "log.lammps"
@@ -100,7 +102,6 @@ BREAKDOWN_SECTIONS = {"Pair": "pair", "Bond": "pair", "Kspace": "pair", "Neigh":
 def parse_breakdown(lines: list[str]) -> dict:
     """Sections with min/avg/max over ranks from every "MPI task timing breakdown" table, summed over blocks;
     load imbalance max/avg of the pair time (``harness.breakdown``)."""
-    from harness.breakdown import add_block, imbalance_of_sections
 
     breakdown: dict = {}
     block = None
@@ -194,6 +195,7 @@ def read_custom_dump(path: Path) -> list[tuple[int, list[str], list[list[float]]
 
 def write_vtp(path: Path, columns: list[str], rows: list[list[float]]) -> None:
     """One snapshot as VTK XML PolyData: a vertex per atom, each column a point array, vectors assembled."""
+    # a heavy library, loaded when this runs, not at every `harness` start
     import numpy as np
     import vtk
     from vtk.util.numpy_support import numpy_to_vtk
@@ -298,7 +300,6 @@ class LammpsAdapter(LammpsFamilyAdapter):
 
     def vtk_files(self, folder):
         """Per-atom VTK files of the run's dumps, by time step (converted from text dumps on first call)."""
-        import shutil
 
         folder = Path(folder)
         try:

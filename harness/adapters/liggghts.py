@@ -24,6 +24,7 @@ from pathlib import Path
 from harness.adapters import register
 from harness.adapters.lammps_family import DUMP, LOOP_TIME, NLOCAL, LammpsFamilyAdapter, erotate_compute_ids
 from harness.adapters.base import UserError
+from harness.breakdown import add_block
 
 #: log file name the harness passes with ``-log`` (LIGGGHTS' own default is ``log.liggghts`` too)
 LOG_NAME = "log.liggghts"
@@ -91,7 +92,6 @@ class LiggghtsAdapter(LammpsFamilyAdapter):
         LIGGGHTS 3.8 prints each section's time averaged over ranks (no min/max; src/finish.cpp), so the load
         imbalance is that of the particles: max/avg of ``Nlocal`` summed over the blocks.
         """
-        from harness.breakdown import add_block
 
         lines = self.log_lines(folder)
         breakdown: dict = {}

@@ -27,6 +27,7 @@ from pathlib import Path
 
 from harness.adapters import register
 from harness.adapters.base import EngineAdapter, LogScan, UserError
+import shutil
 
 LOG_NAME = "log.yade"
 SUPPORT = Path(__file__).resolve().parent / "yade_support"
@@ -54,6 +55,7 @@ def python_of(executable: str) -> str | None:
 
 def convert_vtu(source: Path, destination: Path) -> None:
     """A VTKRecorder ``spheres`` file (UnstructuredGrid) as PolyData with the harness' array names."""
+    # a heavy library, loaded when this runs, not at every `harness` start
     import vtk
 
     reader = vtk.vtkXMLUnstructuredGridReader()
@@ -119,6 +121,7 @@ class YadeAdapter(EngineAdapter):
 
     def read_thermo(self, folder, mapping=None):
         """thermo.csv of the yade_series helper: step, time, atoms, ke (J), rke (J), extra columns."""
+        # a heavy library, loaded when this runs, not at every `harness` start
         import pandas as pd
 
         path = Path(folder) / self.thermo_file
@@ -167,7 +170,6 @@ class YadeAdapter(EngineAdapter):
 
     def vtk_files(self, folder):
         """VTKRecorder sphere files of the run, converted to ``vtk/spheres_ITER.vtp``, by iteration."""
-        import shutil
 
         folder = Path(folder)
         sources = sorted((int(m.group(1)), p) for p in folder.rglob("*.vtu")

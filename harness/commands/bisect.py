@@ -1,5 +1,7 @@
 """``harness bisect TARGET GOOD BAD [-k PATTERN] [--slower FACTOR]``: the first commit that broke a target."""
 import sys
+from harness.adapters.base import UserError
+from harness.store import setup_store
 
 NAME = "bisect"
 HELP = "find the first commit between GOOD and BAD whose runs fail, become inconsistent or slow down"
@@ -19,12 +21,10 @@ def configure(parser):
 
 
 def run(args) -> int:
-    from harness.adapters.base import UserError
-    from harness.store import setup_store
-
     if args.slower is not None and not args.slower > 1.0:
         raise UserError("--slower must be a factor above 1 (e.g. 1.2)")
     setup_store()
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness import gitrepo
     from harness.bisect import bisect
     from harness.compare import rows
@@ -72,6 +72,7 @@ def run(args) -> int:
 def print_slowdown(comparison, runs: int = 3) -> None:
     """Why the first slow commit is slower than GOOD: per most slowed-down run its breakdown against GOOD's,
     and the profile diff where both were profiled (``harness.slowdown``)."""
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.slowdown import explain
 
     explanations = explain(comparison, limit=runs)

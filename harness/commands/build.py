@@ -1,6 +1,8 @@
 """``harness build [TARGET ...] [--force] [-j N]``: build targets at their revisions (cached by definition and
 commit). Without names every target except the on-demand ones (``"on_demand": true``, e.g. liggghts-src)."""
 import sys
+from harness.adapters.base import UserError
+from harness.store import setup_store
 
 NAME = "build"
 HELP = "build targets at their revisions (cached; --force rebuilds)"
@@ -16,9 +18,8 @@ def configure(parser):
 
 
 def run(args) -> int:
-    from harness.adapters.base import UserError
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.builds import build_target
-    from harness.store import setup_store
     from harness.revisions import expand
 
     if args.jobs is not None and args.jobs < 1:

@@ -7,6 +7,7 @@ whole below the table. A run a reviewer overruled reads ``overruled`` with the r
 """
 import json
 import sys
+from harness.store import setup_store
 
 NAME = "check"
 HELP = "check version consistency of runs against the reference target; write JUnit XML"
@@ -58,11 +59,11 @@ def result_and_detail(v) -> tuple[str, str]:
 
 
 def run(args) -> int:
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.check import check_targets, write_junit
     from harness.revisions import expand
     from harness.runner import format_table
     from harness.runrecord import finite
-    from harness.store import setup_store
     from harness.targets import with_testcases
     from harness.textout import ELLIPSIS, width, wrap
 

@@ -6,12 +6,14 @@ now, checks consistency against the references, writes JUnit XML, and exits with
 See docs/ci.md for Jenkins and GitLab/GitHub set-ups.
 """
 import sys
+from harness.store import setup_store
 
 NAME = "ci"
 HELP = "build, run, check and write JUnit XML in one command, with one exit code"
 
 
 def configure(parser):
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.commands.check import add_allow_missing
     from harness.commands.run import add_selection
 
@@ -22,9 +24,8 @@ def configure(parser):
 
 
 def run(args) -> int:
-    from harness.store import setup_store
-
     setup_store()
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.check import check_targets, write_junit
     from harness.commands.run import with_references
     from harness.links import commit_page

@@ -5,6 +5,8 @@ are missing are run first (``--no-run``: compare only what the store holds). See
 """
 import json
 import sys
+from harness.adapters.base import UserError
+from harness.store import setup_store
 
 NAME = "compare"
 HELP = "compare two revisions of a target (or two targets): consistency, new failures, stepping-time ratio"
@@ -26,7 +28,7 @@ def configure(parser):
 
 def side(argument: str, folder):
     """One target definition for ``TARGET`` or ``TARGET@REV`` (a range is refused)."""
-    from harness.adapters.base import UserError
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.revisions import expand, split
 
     if ".." in (split(argument)[1] or ""):
@@ -35,10 +37,8 @@ def side(argument: str, folder):
 
 
 def run(args) -> int:
-    from harness.adapters.base import UserError
-    from harness.store import setup_store
-
     setup_store()
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.builds import record_current_build
     from harness.compare import compare_builds, markdown, rows, summary
     from harness.runner import RunOptions, format_table, run_targets
@@ -65,6 +65,7 @@ def run(args) -> int:
     if args.json:
         data = comparison.as_dict()
         if args.profile:
+            # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
             from harness.slowdown import explain
 
             data["profiles"] = [e.as_dict() for e in explain(comparison)]
@@ -82,6 +83,7 @@ def run(args) -> int:
 def print_profiles(comparison) -> None:
     """Per pair of runs (the most slowed-down first) the breakdown diff and the functions whose share of the
     profile grew most from A to B (``harness.slowdown``); a run without a profile is said to have none."""
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.slowdown import explain
 
     for explanation in explain(comparison):

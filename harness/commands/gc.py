@@ -1,4 +1,8 @@
 """``harness gc [--keep-builds N] [--dry-run]``: remove old run and build folders (never store rows)."""
+
+from harness.adapters.base import UserError
+from harness.store import setup_store
+
 NAME = "gc"
 HELP = "remove run folders and builds of old revisions by a stated policy (store rows are kept)"
 
@@ -12,12 +16,10 @@ def configure(parser):
 
 
 def run(args) -> int:
-    from harness.adapters.base import UserError
-    from harness.store import setup_store
-
     if args.keep_builds < 0:
         raise UserError("--keep-builds must be at least 0")
     setup_store()
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.gc import collect, collect_profiles
 
     result = collect(args.keep_builds, args.dry_run, None if args.all_machines else args.machine)

@@ -1,5 +1,7 @@
 """``harness import FOLDER``: bring run folders (with their run.json) from another machine into the store."""
 import sys
+from harness.adapters.base import UserError
+from harness.store import setup_store
 
 NAME = "import"
 HELP = "import run folders (run.json records) into the store"
@@ -13,12 +15,12 @@ def configure(parser):
 
 
 def run(args) -> int:
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.records import import_folder
-    from harness.store import setup_store
 
     setup_store()
     if args.as_machine:
-        from harness.adapters.base import UserError
+        # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
         from harness.workspace import segment_problem
 
         if segment_problem(args.as_machine):

@@ -2,6 +2,8 @@
 
 Exit code 5 when a selection (targets, state, pattern) matches no run."""
 import json
+from harness.adapters.base import UserError
+from harness.store import setup_store
 
 NAME = "list"
 HELP = "list runs of the current builds with their state, commit and test case content"
@@ -20,10 +22,8 @@ def configure(parser):
 
 
 def run(args) -> int:
-    from harness.store import setup_store
-
     setup_store()
-    from harness.adapters.base import UserError
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.builds import record_current_build
     from harness.models import Run, Target
     from harness.runner import format_table

@@ -7,6 +7,8 @@ Writes ``$HARNESS_HOME/matrix/matrix.json`` and ``matrix.csv`` (for the dashboar
 test case was run by two of the targets.
 """
 import sys
+from harness.adapters.base import UserError
+from harness.store import setup_store
 
 NAME = "matrix"
 HELP = "cross-code consistency matrix: every target against every other on the test cases they share"
@@ -24,10 +26,9 @@ def configure(parser):
 
 
 def run(args) -> int:
-    from harness.adapters.base import UserError
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.builds import record_current_build
     from harness.matrix import _c, build_matrix, format_matrix, write_csv, write_json
-    from harness.store import setup_store
     from harness.targets import select_targets
     from harness.workspace import workspace
 

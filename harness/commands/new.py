@@ -13,6 +13,7 @@ def configure(parser):
 
 
 def run(args) -> int:
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.scaffold import new_testcase
 
     parent = Path(args.parent).expanduser().resolve()

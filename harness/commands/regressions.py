@@ -1,5 +1,6 @@
 """``harness regressions [TARGET] [-k PATTERN] [--json]``: builds where stepping time or a quantity changed."""
 import json
+from harness.store import setup_store
 
 NAME = "regressions"
 HELP = "mark the commits where a test case's stepping time or physics changed over a target's history"
@@ -18,9 +19,8 @@ def configure(parser):
 
 
 def run(args) -> int:
-    from harness.store import setup_store
-
     setup_store()
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.regressions import build_times, comparable, histories
     from harness.runner import format_table
 

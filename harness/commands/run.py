@@ -1,6 +1,8 @@
 """``harness run [TARGET ...] [-k PATTERN] [-j N] [--rerun-failed] [--working-tree] [--scheduler ADDRESS]``."""
 import sys
 from pathlib import Path
+from harness.adapters.base import UserError
+from harness.store import setup_store
 
 NAME = "run"
 HELP = "build targets if needed and run their test cases"
@@ -41,8 +43,8 @@ def configure(parser):
 
 
 def run(args) -> int:
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.runner import RunOptions, run_targets, summary_table
-    from harness.store import setup_store
     from harness.revisions import expand
 
     setup_store()
@@ -50,15 +52,14 @@ def run(args) -> int:
     if args.targets and not args.no_reference:
         targets = with_references(targets)
     if args.testcases:
+        # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
         from harness.targets import with_testcases
 
         if not Path(args.testcases).expanduser().is_dir():
-            from harness.adapters.base import UserError
 
             raise UserError(f"--testcases: {args.testcases}: no such folder")
         targets = [with_testcases(t, args.testcases) for t in targets]
     if args.jobs < 1 or args.repeat < 1:
-        from harness.adapters.base import UserError
 
         raise UserError("-j and --repeat must be at least 1")
     options = RunOptions(machine=args.machine, pattern=args.pattern, jobs=args.jobs,
@@ -85,6 +86,7 @@ def with_references(targets):
 
     A check needs the reference's runs; they are cached, so naming only the target under test is enough.
     """
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.targets import reference_of
 
     chosen = list(targets)

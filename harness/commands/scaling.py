@@ -8,6 +8,7 @@ CSV and JSON under ``$HARNESS_HOME/scaling/MACHINE/TARGET/TESTCASE/NAME.{csv,jso
 import json
 import os
 import sys
+from harness.store import setup_store
 
 NAME = "scaling"
 HELP = "run scaling studies (speedup, parallel efficiency, serial fraction over threads or MPI ranks)"
@@ -25,9 +26,8 @@ def configure(parser):
 
 
 def run(args) -> int:
-    from harness.store import setup_store
-
     setup_store()
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness import scaling
     from harness.builds import record_current_build
     from harness.models import Run

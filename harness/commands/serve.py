@@ -14,6 +14,7 @@ import subprocess
 import sys
 
 from harness.workspace import PROJECT_ROOT, workspace
+from harness.adapters.base import UserError
 
 NAME = "serve"
 HELP = "serve the web dashboard over the store (development server, or gunicorn with --production)"
@@ -42,8 +43,6 @@ def environment() -> dict:
 
 
 def run(args) -> int:
-    from harness.adapters.base import UserError
-
     env = environment()
     settings = "webfrontend.settings_production" if args.production else "webfrontend.settings"
     # the servers bring the store's schema up to date as they open it (harness.schema.ensure_schema)

@@ -4,6 +4,7 @@ The columns are explained in ``--help`` (``COLUMNS``), the states in the glossar
 """
 import argparse
 import json
+from harness.store import setup_store
 
 NAME = "status"
 HELP = "summary per target: current build (commit) and its runs per state"
@@ -16,8 +17,10 @@ STATE_COLUMNS = {"not_executed": ("not run", "not executed"), "executed": ("exec
 
 
 def columns_help() -> str:
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     import textwrap
 
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.glossary import STATES
     from harness.textout import DEFAULT_WIDTH
 
@@ -41,11 +44,11 @@ def configure(parser):
 
 
 def run(args) -> int:
-    from harness.store import setup_store
-
     setup_store()
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from django.db.models import Count
 
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.builds import current_build, record_current_build
     from harness.models import Run, Target
     from harness.runner import format_table

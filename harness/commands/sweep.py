@@ -5,12 +5,14 @@ Runs the sweep points of the targets' run configurations that declare a ``sweep`
 and against the swept value, with the observed convergence order, under ``$HARNESS_HOME/sweeps/``.
 """
 import sys
+from harness.store import setup_store
 
 NAME = "sweep"
 HELP = "run sweeps (error against run time over a grid of a variable) and plot them"
 
 
 def configure(parser):
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.commands.run import add_selection
 
     add_selection(parser, what="sweeps")
@@ -18,9 +20,8 @@ def configure(parser):
 
 
 def run(args) -> int:
-    from harness.store import setup_store
-
     setup_store()
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness import sweep as sw
     from harness.builds import record_current_build
     from harness.models import Run

@@ -2,6 +2,7 @@
 its test case folders hold, without building or running anything. Exit code 0 when all are valid, 1 with a
 problem (each printed as ``FILE: $.path: what is wrong``)."""
 import sys
+from harness.adapters.base import UserError
 
 NAME = "validate"
 HELP = "check every target and run.config (nothing is built or run)"
@@ -15,8 +16,8 @@ def configure(parser):
 
 
 def run(args) -> int:
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.adapters import get_adapter
-    from harness.adapters.base import UserError
     from harness.targets import load_targets, with_testcases
     from harness.testcases import discover
 

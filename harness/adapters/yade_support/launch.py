@@ -90,6 +90,7 @@ def main(argv):
     print(f"YADE {getattr(launcher, 'version', '?')} ({executable}), script {script}, arguments {args}, "
           f"OpenMP threads {os.environ.get('OMP_NUM_THREADS', '?')}, start-up {time.perf_counter() - start:.2f} s")
 
+    # YADE's modules exist only inside a YADE process (and the script's own __main__)
     import __main__
 
     namespace = __main__.__dict__

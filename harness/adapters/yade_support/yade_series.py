@@ -84,6 +84,7 @@ class Thermo:
 
     def engine(self):
         """A PyRunner that samples each ``every`` iterations; put it after InteractionLoop, before Newton."""
+        # YADE's modules exist only inside a YADE process (and the script's own __main__)
         from yade.wrapper import PyRunner
         import __main__
 
@@ -92,6 +93,7 @@ class Thermo:
 
     def sample(self):
         """Write the row of step ``O.iter`` (see the module docstring for the full-step velocities)."""
+        # YADE's modules exist only inside a YADE process (and the script's own __main__)
         from yade.wrapper import Omega, NewtonIntegrator, Sphere
 
         O = Omega()
@@ -135,6 +137,7 @@ def start_at_full_step():
     set and while no body touches another: v(-dt/2) = v0 - dt/2 g. Then free flight is the same in all codes
     to round-off (x(dt) = x0 + v0 dt + g dt^2/2).
     """
+    # YADE's modules exist only inside a YADE process (and the script's own __main__)
     from yade.wrapper import Omega, NewtonIntegrator
 
     O = Omega()
@@ -151,6 +154,7 @@ def write_final_state(file="thermo.csv"):
     own examples, unchanged, still give the harness a result to compare between versions. Velocities are as
     YADE holds them (leap-frog: v(t - dt/2) after the last step); the row says so in column ``source``.
     """
+    # YADE's modules exist only inside a YADE process (and the script's own __main__)
     from yade.wrapper import Omega, Sphere
 
     O = Omega()
@@ -169,6 +173,7 @@ def write_final_state(file="thermo.csv"):
 
 def write_timing(total, file="timing.json"):
     """timing.json with ``total`` (s) and, with O.timingEnabled, the engines' execTime (ns) per section."""
+    # YADE's modules exist only inside a YADE process (and the script's own __main__)
     from yade.wrapper import Omega
 
     O = Omega()
@@ -197,6 +202,7 @@ def write_timing(total, file="timing.json"):
 def run(steps, thermo=None, timing=True):
     """Run ``steps`` iterations (plus the one that samples step ``steps``, see the module docstring) and write
     timing.json; ``thermo`` (a Thermo) gets its last row and is closed."""
+    # YADE's modules exist only inside a YADE process (and the script's own __main__)
     from yade.wrapper import Omega
 
     O = Omega()
