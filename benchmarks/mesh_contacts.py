@@ -31,6 +31,7 @@ REPO = Path(__file__).resolve().parents[1]
 RADIUS = 0.0015  # m
 sys.path.insert(0, str(REPO))  # the harness' adapters read the logs
 from harness.adapters import get_adapter  # noqa: E402
+
 GRID = 2.0 ** -10  # m: box coordinates are multiples of this (exact in float32)
 
 

@@ -25,9 +25,9 @@ from filelock import Timeout
 
 from harness import gitrepo
 from harness.adapters.base import UserError
+from harness.rules import restored_state
 from harness.targets import TargetDefinition
 from harness.workspace import workspace
-from harness.rules import restored_state
 
 DONE_MARKER = "done"
 #: failure reason of the runs of a target whose build failed (they are not executed)

@@ -19,10 +19,16 @@ from pathlib import Path
 
 from harness import junit
 from harness.adapters.base import UserError
-from harness.junit import provenance  # noqa: F401  (what a verdict was computed on; the dashboard shows it)
 from harness.builds import failed_build, failure_message, record_current_build
-from harness.coverage import covered_runs, earlier_content_run, record_build_failure, record_selection, selected
 from harness.consistency import QuantityResult, compare_runs, run_level
+from harness.coverage import (
+    covered_runs,
+    earlier_content_run,
+    record_build_failure,
+    record_selection,
+    selected,
+)
+from harness.junit import provenance  # noqa: F401  (what a verdict was computed on; the dashboard shows it)
 from harness.rules import WHOLE_RUN, gate_status, override_for, quantity_fails
 
 
@@ -150,7 +156,9 @@ def check_targets(targets, machine: str, pattern: str | None = None, allow_missi
     with the selection (``harness.coverage.record_selection``), then every covered run gets a verdict -
     broken configurations and runs not executed included. A target whose revision does not build: its runs
     are failed with reason build_failed, the build is in ``failed_builds`` and a problem."""
-    from harness.models import Run  # the store's models load once Django is set up (harness.store)
+    from harness.models import (
+        Run,  # the store's models load once Django is set up (harness.store)
+    )
 
     report = CheckReport()
     for target in targets:

@@ -16,15 +16,14 @@ import pkgutil
 import signal
 import socket
 import sys
-
+import threading
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
+import harness.commands as package
 from harness import textout
 from harness.adapters.base import UserError
 from harness.workspace import Workspace, segment_problem, use_workspace, workspace
-import threading
-from importlib.metadata import PackageNotFoundError, version
-import harness.commands as package
 
 
 def _commands():

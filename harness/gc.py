@@ -14,13 +14,14 @@ while it removes, so no run of that build can start meanwhile.
 """
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from harness.workspace import workspace
-from harness.profiles import PERF_DATA
-import hashlib
 from filelock import Timeout
+
+from harness.profiles import PERF_DATA
+from harness.workspace import workspace
 
 
 @dataclass

@@ -22,6 +22,7 @@ import csv
 import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+
 from harness.check import series_of
 from harness.consistency import compare_runs
 from harness.rules import SUCCESS_STATES

@@ -26,6 +26,7 @@ import shutil
 import subprocess
 from collections import Counter
 from pathlib import Path
+
 from harness.breakdown import section_seconds
 
 FOLDED_FILE = "profile.folded"

@@ -7,20 +7,39 @@ page costs a fixed number of queries.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import math
 import statistics
+from dataclasses import dataclass, field
 from types import SimpleNamespace
 
 from django.apps import apps
 from django.db import models
-from django.db.models import (Case, Count, Exists, IntegerField, Max, Min, OuterRef, Prefetch, Q, Sum, Value,
-                              When)
+from django.db.models import (
+    Case,
+    Count,
+    Exists,
+    IntegerField,
+    Max,
+    Min,
+    OuterRef,
+    Prefetch,
+    Q,
+    Sum,
+    Value,
+    When,
+)
 from django.db.models.functions import Concat
 
-from harness.rules import (CONSISTENT_LEVELS, OVERRIDE_SEPARATORS, SUCCESS_STATES, WHOLE_RUN, effective_state,
-                           gate_status, is_failing, relative_spread)
+from harness.rules import (
+    CONSISTENT_LEVELS,
+    OVERRIDE_SEPARATORS,
+    SUCCESS_STATES,
+    WHOLE_RUN,
+    effective_state,
+    gate_status,
+    is_failing,
+    relative_spread,
+)
 
 
 def _model(name: str):

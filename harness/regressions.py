@@ -16,7 +16,7 @@ from __future__ import annotations
 import statistics
 from dataclasses import dataclass, field
 
-from harness.compare import scored, attach_series, compare_pair, run_rows
+from harness.compare import attach_series, compare_pair, run_rows, scored
 from harness.rules import SUCCESS_STATES, effective_state, relative_spread
 from harness.testcases import matches
 

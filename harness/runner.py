@@ -20,21 +20,21 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
+from filelock import Timeout
+
 from harness import execute as ex
+from harness import profiles
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
-from harness.builds import BuildError, build_target, failed_build
+from harness.builds import DONE_MARKER, BuildError, build_target, failed_build
 from harness.coverage import record_build_failure, record_selection, selected
-from harness.records import store_record
 from harness.planning import build_info, make_spec
+from harness.records import store_record
 from harness.rules import SUCCESS_STATES, effective_state
 from harness.targets import TargetDefinition
 from harness.testcases import RunEntry, TestCaseSpec, discover
 from harness.textout import format_table  # noqa: F401  (the commands import it from here)
 from harness.workspace import workspace
-from filelock import Timeout
-from harness import profiles
-from harness.builds import DONE_MARKER
 
 
 @dataclass
@@ -416,7 +416,9 @@ class _Execution:
 
     def done_elsewhere(self, task: Task) -> None:
         """A run another process finished meanwhile: its stored result stands for it (not run again)."""
-        from harness.models import Run  # the store's models load once Django is set up (harness.store)
+        from harness.models import (
+            Run,  # the store's models load once Django is set up (harness.store)
+        )
 
         row = Run.objects.get(build_id=task.spec["build"]["id"], machine__name=task.spec["machine"],
                               testcase__path=task.spec["testcase"], name=task.spec["run"],
@@ -497,6 +499,26 @@ def run_targets(targets: list[TargetDefinition], options: RunOptions, out=None) 
             lock.release()
     report.elapsed = time.perf_counter() - started
     return report
+
+
+def run_and_read(targets: list[TargetDefinition], options: RunOptions, run: bool = True) -> tuple[int, list]:
+    """Run the selected runs of ``targets`` (unless not ``run``: only read the store), then the live runs of
+    each target's current build on the machine, for the commands that tabulate studies over run points
+    (``harness scaling``, ``harness sweep``). Returns (runs that failed, [(target, build, runs)]), a target
+    whose revision is not built here left out."""
+    from harness.builds import record_current_build
+
+    # the store's models (Django) load once Django is set up (harness.store)
+    from harness.models import Run
+
+    failed = len(run_targets(targets, options).failed) if run else 0
+    found = []
+    for target in targets:
+        build = record_current_build(target, options.machine)
+        if build is not None:
+            found.append((target, build, Run.objects.filter(build=build, machine__name=options.machine,
+                                                            replaced=False)))
+    return failed, found
 
 
 def cost_per_particle_step(timing: dict) -> float | None:

@@ -7,8 +7,10 @@ store, possibly shared by several machines where a file lock protects nothing, u
 lock held on the server.
 """
 from __future__ import annotations
-from harness.workspace import workspace
+
 from filelock import Timeout
+
+from harness.workspace import workspace
 
 #: name of the workspace lock held while migrating (harness.workspace.Workspace.lock)
 LOCK_NAME = "migrate"

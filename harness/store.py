@@ -1,5 +1,6 @@
 """Open the store from outside Django (the CLI, scripts): configure settings once and migrate."""
 import os
+
 from harness.adapters.base import UserError
 
 _ready = False

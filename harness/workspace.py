@@ -10,15 +10,16 @@ a workspace.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import os
 import re
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-from harness.adapters.base import UserError
 from filelock import FileLock
-import fcntl
+
+from harness.adapters.base import UserError
 
 PROJECT_ROOT = Path(__file__).resolve().parent.parent
 

@@ -9,9 +9,10 @@ An adapter is looked up by the name given in a target definition's ``"engine"`` 
   (``[project.entry-points."dem_harness.adapters"] mycode = "mypackage.adapter:MyCodeAdapter"``; the value is
   an ``EngineAdapter`` subclass, the entry point's name is the engine name).
 """
-from harness.adapters.base import EngineAdapter, LogScan, UserError  # noqa: F401
 import importlib
 from importlib.metadata import entry_points
+
+from harness.adapters.base import EngineAdapter, LogScan, UserError  # noqa: F401
 
 #: entry-point group where other packages declare adapters (name -> EngineAdapter subclass)
 ENTRY_POINT_GROUP = "dem_harness.adapters"

@@ -29,15 +29,20 @@ from __future__ import annotations
 
 import gzip
 import math
-import os
 import re
+import shutil
 from pathlib import Path
 
 from harness.adapters import register
 from harness.adapters.base import UserError
-from harness.adapters.lammps_family import DUMP, LOOP_TIME, LammpsFamilyAdapter, erotate_compute_ids
+from harness.adapters.lammps_family import (
+    LOOP_TIME,
+    LammpsFamilyAdapter,
+    dump_files,
+    dump_patterns,
+    erotate_compute_ids,
+)
 from harness.breakdown import add_block, imbalance_of_sections
-import shutil
 
 #: log file name the harness passes with ``-log`` (LAMMPS' own default is ``log.lammps`` too)
 LOG_NAME = "log.lammps"
@@ -231,30 +236,6 @@ def write_vtp(path: Path, columns: list[str], rows: list[list[float]]) -> None:
         raise UserError(f"{path}: VTK writer failed")
 
 
-def dump_patterns(lines: list[str]) -> list[tuple[str, str, str]]:
-    """``(dump ID, style, file pattern)`` of the echoed ``dump`` commands, in order; patterns with ``${...}``
-    are left out (LAMMPS echoes the substituted line right after)."""
-    found = []
-    for line in lines:
-        m = DUMP.match(line)
-        if m and "$" not in m.group(3) and m.groups() not in found:
-            found.append(m.groups())
-    return found
-
-
-def _matching_files(folder: Path, pattern: str) -> list[tuple[Path, int | None]]:
-    """Files of a dump pattern: ``*`` is the time step; no ``*`` is one file (all snapshots in it)."""
-    if "*" not in pattern:
-        path = folder / pattern
-        return [(path, None)] if path.is_file() else []
-    directory, name = os.path.split(pattern)
-    regex = re.compile("^" + re.escape(name).replace(r"\*", r"(\d+)") + "$")
-    base = folder / directory
-    if not base.is_dir():
-        return []
-    return [(p, int(m.group(1))) for p in base.iterdir() if (m := regex.match(p.name))]
-
-
 @register
 class LammpsAdapter(LammpsFamilyAdapter):
     """LAMMPS (GRANULAR package): command line, thermo/timing/errors from its log, custom dumps as VTK.
@@ -311,7 +292,7 @@ class LammpsAdapter(LammpsFamilyAdapter):
         converted = False
         for order, (dump_id, style, pattern) in enumerate(dump_patterns(lines)):
             if style in _VTK_DUMPS:
-                for path, step in _matching_files(folder, pattern):
+                for path, step in dump_files(folder, pattern):
                     found.setdefault(path, (step or 0, order))
                 continue
             if style not in _TEXT_DUMPS:
@@ -321,7 +302,7 @@ class LammpsAdapter(LammpsFamilyAdapter):
                     shutil.rmtree(target)
                 target.mkdir()
                 converted = True
-            for path, _step in sorted(_matching_files(folder, pattern)):
+            for path, _step in sorted(dump_files(folder, pattern)):
                 for step, columns, rows in read_custom_dump(path):
                     out = target / f"{dump_id}_{step}.vtp"
                     if out in found:

@@ -90,6 +90,30 @@ def loop_blocks(lines: list[str]) -> list[LoopBlock]:
             for line in lines if (m := LOOP_TIME.match(line))]
 
 
+def dump_patterns(lines: list[str]) -> list[tuple[str, str, str]]:
+    """``(dump ID, style, file pattern)`` of the echoed ``dump`` commands, in order; patterns with ``${...}``
+    are left out (LAMMPS echoes the substituted line right after)."""
+    found = []
+    for line in lines:
+        m = DUMP.match(line)
+        if m and "$" not in m.group(3) and m.groups() not in found:
+            found.append(m.groups())
+    return found
+
+
+def dump_files(folder: Path, pattern: str) -> list[tuple[Path, int | None]]:
+    """Files of a dump pattern: ``*`` is the time step; no ``*`` is one file (all snapshots in it)."""
+    if "*" not in pattern:
+        path = folder / pattern
+        return [(path, None)] if path.is_file() else []
+    directory, name = os.path.split(pattern)
+    regex = re.compile("^" + re.escape(name).replace(r"\*", r"(\d+)") + "$")
+    base = folder / directory
+    if not base.is_dir():
+        return []
+    return [(p, int(m.group(1))) for p in base.iterdir() if (m := regex.match(p.name))]
+
+
 class LammpsFamilyAdapter(EngineAdapter):
     """The log of a LAMMPS-family code: thermo blocks, loop times, error lines, ``in.*`` test cases.
 

@@ -17,13 +17,19 @@ way (thermo blocks, loop times, error lines, ``in.*`` test cases) is ``harness.a
 from __future__ import annotations
 
 import math
-import os
 import re
 from pathlib import Path
 
 from harness.adapters import register
-from harness.adapters.lammps_family import DUMP, LOOP_TIME, NLOCAL, LammpsFamilyAdapter, erotate_compute_ids
 from harness.adapters.base import UserError
+from harness.adapters.lammps_family import (
+    LOOP_TIME,
+    NLOCAL,
+    LammpsFamilyAdapter,
+    dump_files,
+    dump_patterns,
+    erotate_compute_ids,
+)
 from harness.breakdown import add_block
 
 #: log file name the harness passes with ``-log`` (LIGGGHTS' own default is ``log.liggghts`` too)
@@ -140,24 +146,10 @@ class LiggghtsAdapter(LammpsFamilyAdapter):
             return []
         found: dict[Path, tuple[int, int]] = {}
         patterns: list[str] = []
-        for line in lines:
-            m = DUMP.match(line)
-            if m and m.group(2) in _PARTICLE_VTK_STYLES and "$" not in m.group(3):
-                if m.group(3) not in patterns:
-                    patterns.append(m.group(3))
+        for _dump_id, style, pattern in dump_patterns(lines):
+            if style in _PARTICLE_VTK_STYLES and pattern not in patterns:
+                patterns.append(pattern)
         for order, pattern in enumerate(patterns):
-            if "*" not in pattern:
-                path = folder / pattern
-                if path.is_file():
-                    found.setdefault(path, (0, order))
-                continue
-            directory, name = os.path.split(pattern)
-            regex = re.compile("^" + re.escape(name).replace(r"\*", r"(\d+)") + "$")
-            base = folder / directory
-            if not base.is_dir():
-                continue
-            for path in base.iterdir():
-                m = regex.match(path.name)
-                if m:
-                    found.setdefault(path, (int(m.group(1)), order))
+            for path, step in dump_files(folder, pattern):
+                found.setdefault(path, (step or 0, order))
         return sorted(found, key=lambda p: found[p])

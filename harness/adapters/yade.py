@@ -23,11 +23,11 @@ from __future__ import annotations
 import json
 import math
 import re
+import shutil
 from pathlib import Path
 
 from harness.adapters import register
 from harness.adapters.base import EngineAdapter, LogScan, UserError
-import shutil
 
 LOG_NAME = "log.yade"
 SUPPORT = Path(__file__).resolve().parent / "yade_support"

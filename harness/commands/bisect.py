@@ -1,5 +1,6 @@
 """``harness bisect TARGET GOOD BAD [-k PATTERN] [--slower FACTOR]``: the first commit that broke a target."""
 import sys
+
 from harness.adapters.base import UserError
 from harness.store import setup_store
 

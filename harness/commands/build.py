@@ -1,6 +1,7 @@
 """``harness build [TARGET ...] [--force] [-j N]``: build targets at their revisions (cached by definition and
 commit). Without names every target except the on-demand ones (``"on_demand": true``, e.g. liggghts-src)."""
 import sys
+
 from harness.adapters.base import UserError
 from harness.store import setup_store
 

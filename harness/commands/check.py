@@ -7,6 +7,7 @@ whole below the table. A run a reviewer overruled reads ``overruled`` with the r
 """
 import json
 import sys
+
 from harness.store import setup_store
 
 NAME = "check"

@@ -6,6 +6,7 @@ now, checks consistency against the references, writes JUnit XML, and exits with
 See docs/ci.md for Jenkins and GitLab/GitHub set-ups.
 """
 import sys
+
 from harness.store import setup_store
 
 NAME = "ci"

@@ -5,6 +5,7 @@ are missing are run first (``--no-run``: compare only what the store holds). See
 """
 import json
 import sys
+
 from harness.adapters.base import UserError
 from harness.store import setup_store
 

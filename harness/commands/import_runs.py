@@ -1,5 +1,6 @@
 """``harness import FOLDER``: bring run folders (with their run.json) from another machine into the store."""
 import sys
+
 from harness.adapters.base import UserError
 from harness.store import setup_store
 

@@ -2,6 +2,7 @@
 
 Exit code 5 when a selection (targets, state, pattern) matches no run."""
 import json
+
 from harness.adapters.base import UserError
 from harness.store import setup_store
 

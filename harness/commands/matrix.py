@@ -7,6 +7,7 @@ Writes ``$HARNESS_HOME/matrix/matrix.json`` and ``matrix.csv`` (for the dashboar
 test case was run by two of the targets.
 """
 import sys
+
 from harness.adapters.base import UserError
 from harness.store import setup_store
 

@@ -1,5 +1,6 @@
 """``harness regressions [TARGET] [-k PATTERN] [--json]``: builds where stepping time or a quantity changed."""
 import json
+
 from harness.store import setup_store
 
 NAME = "regressions"

@@ -1,6 +1,7 @@
 """``harness run [TARGET ...] [-k PATTERN] [-j N] [--rerun-failed] [--working-tree] [--scheduler ADDRESS]``."""
 import sys
 from pathlib import Path
+
 from harness.adapters.base import UserError
 from harness.store import setup_store
 
@@ -44,8 +45,8 @@ def configure(parser):
 
 def run(args) -> int:
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.runner import RunOptions, run_targets, summary_table
     from harness.revisions import expand
+    from harness.runner import RunOptions, run_targets, summary_table
 
     setup_store()
     targets, problems = expand(args.targets, args.targets_dir, args.steps)

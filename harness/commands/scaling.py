@@ -8,6 +8,7 @@ CSV and JSON under ``$HARNESS_HOME/scaling/MACHINE/TARGET/TESTCASE/NAME.{csv,jso
 import json
 import os
 import sys
+
 from harness.store import setup_store
 
 NAME = "scaling"
@@ -29,10 +30,8 @@ def run(args) -> int:
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness import scaling
-    from harness.builds import record_current_build
-    from harness.models import Run
     from harness.revisions import expand
-    from harness.runner import RunOptions, format_table, run_targets
+    from harness.runner import RunOptions, format_table, run_and_read
     from harness.runrecord import finite
     from harness.testcases import matches
     from harness.workspace import workspace
@@ -40,21 +39,14 @@ def run(args) -> int:
     targets, problems = expand(args.targets, args.targets_dir)
     for problem in problems:
         print(f"harness: {problem}", file=sys.stderr)
-    failed_runs = 0
-    if not args.no_run:
-        # scaling points are named NAME@cores=P: this selects exactly them; one at a time
-        pattern = f"*{args.pattern}*@cores=*" if args.pattern else "*@cores=*"
-        options = RunOptions(machine=args.machine, pattern=pattern, jobs=1, working_tree=args.working_tree,
-                             profile=args.profile)
-        report = run_targets(targets, options)
-        failed_runs = len(report.failed)
+    # scaling points are named NAME@cores=P: this selects exactly them; one at a time
+    pattern = f"*{args.pattern}*@cores=*" if args.pattern else "*@cores=*"
+    options = RunOptions(machine=args.machine, pattern=pattern, jobs=1, working_tree=args.working_tree,
+                         profile=args.profile)
+    failed_runs, built = run_and_read(targets, options, run=not args.no_run)
     found = 0
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    for target in targets:
-        build = record_current_build(target, args.machine)
-        if build is None:
-            continue
-        runs = Run.objects.filter(build=build, machine__name=args.machine, replaced=False)
+    for target, build, runs in built:
         for study in scaling.studies_in_store(runs):
             if not matches(args.pattern, study.testcase, study.name):
                 continue

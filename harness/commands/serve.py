@@ -13,8 +13,8 @@ import os
 import subprocess
 import sys
 
-from harness.workspace import PROJECT_ROOT, workspace
 from harness.adapters.base import UserError
+from harness.workspace import PROJECT_ROOT, workspace
 
 NAME = "serve"
 HELP = "serve the web dashboard over the store (development server, or gunicorn with --production)"

@@ -4,6 +4,7 @@ The columns are explained in ``--help`` (``COLUMNS``), the states in the glossar
 """
 import argparse
 import json
+
 from harness.store import setup_store
 
 NAME = "status"

@@ -5,6 +5,7 @@ Runs the sweep points of the targets' run configurations that declare a ``sweep`
 and against the swept value, with the observed convergence order, under ``$HARNESS_HOME/sweeps/``.
 """
 import sys
+
 from harness.store import setup_store
 
 NAME = "sweep"
@@ -23,29 +24,20 @@ def run(args) -> int:
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness import sweep as sw
-    from harness.builds import record_current_build
-    from harness.models import Run
-    from harness.workspace import workspace
-    from harness.runner import RunOptions, format_table, run_targets
+    from harness.runner import RunOptions, format_table, run_and_read
     from harness.targets import select_targets
     from harness.testcases import matches
+    from harness.workspace import workspace
 
     targets, problems = select_targets(args.targets, args.targets_dir)
     for problem in problems:
         print(f"harness: {problem}", file=sys.stderr)
-    failed_runs = 0
-    if not args.no_run:
-        # sweep points are named NAME@VARIABLE=VALUE: '@' selects exactly them
-        pattern = f"*{args.pattern}*@*" if args.pattern else "*@*"
-        options = RunOptions(machine=args.machine, pattern=pattern, jobs=args.jobs, working_tree=args.working_tree)
-        report = run_targets(targets, options)
-        failed_runs = len(report.failed)
+    # sweep points are named NAME@VARIABLE=VALUE: '@' selects exactly them
+    pattern = f"*{args.pattern}*@*" if args.pattern else "*@*"
+    options = RunOptions(machine=args.machine, pattern=pattern, jobs=args.jobs, working_tree=args.working_tree)
+    failed_runs, built = run_and_read(targets, options, run=not args.no_run)
     found = 0
-    for target in targets:
-        build = record_current_build(target, args.machine)
-        if build is None:
-            continue
-        runs = Run.objects.filter(build=build, machine__name=args.machine, replaced=False)
+    for target, build, runs in built:
         for result in sw.sweeps_in_store(runs):
             if not matches(args.pattern, result.testcase, result.name):
                 continue

@@ -2,6 +2,7 @@
 its test case folders hold, without building or running anything. Exit code 0 when all are valid, 1 with a
 problem (each printed as ``FILE: $.path: what is wrong``)."""
 import sys
+
 from harness.adapters.base import UserError
 
 NAME = "validate"
