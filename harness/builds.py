@@ -530,11 +530,7 @@ def _build_make(target: TargetDefinition, commit: str, folder: Path, context: Bu
         context.run(command, source, shell=True, what="configure command")
     context.run(["make", f"-j{context.jobs}", target.make_target,
                  *(f"{name}={value}" for name, value in target.make_variables.items())], source)
-    _ccache_stats(context)
-    executable = _install(target, source / target.generated_executable, context, "make")
-    for command in target.postbuild:
-        context.run(command, root, shell=True, what="postbuild command")
-    return executable, {}
+    return _finish_native(target, source / target.generated_executable, root, context, "make")
 
 
 def _build_cmake(target: TargetDefinition, commit: str, folder: Path, context: BuildContext):
@@ -552,8 +548,14 @@ def _build_cmake(target: TargetDefinition, commit: str, folder: Path, context: B
     targets = [arg for name in target.build_targets for arg in ("--target", name)]
     context.run(["cmake", "--build", str(build_dir), "--parallel", str(context.jobs), *targets], folder,
                 what="cmake --build")
+    return _finish_native(target, build_dir / target.generated_executable, root, context, "cmake --build")
+
+
+def _finish_native(target: TargetDefinition, produced: Path, root: Path, context: BuildContext, made_by: str):
+    """After a compiled build (make, cmake): the ccache counters, the program copied to bin/, the postbuild
+    commands run in the source tree ``root``; the recipe's (executable, environment)."""
     _ccache_stats(context)
-    executable = _install(target, build_dir / target.generated_executable, context, "cmake --build")
+    executable = _install(target, produced, context, made_by)
     for command in target.postbuild:
         context.run(command, root, shell=True, what="postbuild command")
     return executable, {}

@@ -266,27 +266,17 @@ class LammpsAdapter(LammpsFamilyAdapter):
 
     def read_timing(self, folder):
         """Seconds summed over run blocks: total (``Loop time``), pair, neigh, comm, modify, output, other."""
-        try:
-            lines = self.log_lines(folder)
-        except UserError:
-            return {key: 0.0 for key in TIMING_KEYS}
-        return parse_timing(lines)
+        return parse_timing(self.log_lines_if_any(folder))
 
     def read_breakdown(self, folder, timing=None):
         """Sections with min/avg/max over ranks (``parse_breakdown``); {} without a log."""
-        try:
-            return parse_breakdown(self.log_lines(folder))
-        except UserError:
-            return {}
+        return parse_breakdown(self.log_lines_if_any(folder))
 
     def vtk_files(self, folder):
         """Per-atom VTK files of the run's dumps, by time step (converted from text dumps on first call)."""
 
         folder = Path(folder)
-        try:
-            lines = self.log_lines(folder)
-        except UserError:
-            return []
+        lines = self.log_lines_if_any(folder)
         found: dict[Path, tuple[int, int]] = {}
         target = folder / self.vtk_folder
         converted = False

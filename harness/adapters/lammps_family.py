@@ -133,6 +133,13 @@ class LammpsFamilyAdapter(EngineAdapter):
         """Lines of the run's log (a UserError naming the file when there is none)."""
         return read_log_lines(Path(folder), self.log_file(), self.code)
 
+    def log_lines_if_any(self, folder) -> list[str]:
+        """Lines of the run's log, [] without one (a run that did not start has no timing and no dumps)."""
+        try:
+            return self.log_lines(folder)
+        except UserError:
+            return []
+
     def rke_candidates(self, lines: list[str]) -> list[str]:
         """Column names that may hold the rotational kinetic energy, best first (``map_thermo``'s candidates)."""
         return erotate_compute_ids(lines)
@@ -167,10 +174,7 @@ class LammpsFamilyAdapter(EngineAdapter):
 
     def loop_blocks(self, folder) -> list[LoopBlock]:
         """Each run block's ``Loop time of T on P procs for N steps with A atoms`` ([] without a log)."""
-        try:
-            return loop_blocks(self.log_lines(folder))
-        except UserError:
-            return []
+        return loop_blocks(self.log_lines_if_any(folder))
 
     def scan_log(self, folder) -> LogScan:
         """``ERROR`` lines (they fail a run even with exit code 0) and the log's ``WARNING`` lines, in order.

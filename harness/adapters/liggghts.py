@@ -21,7 +21,6 @@ import re
 from pathlib import Path
 
 from harness.adapters import register
-from harness.adapters.base import UserError
 from harness.adapters.lammps_family import (
     LOOP_TIME,
     NLOCAL,
@@ -140,10 +139,7 @@ class LiggghtsAdapter(LammpsFamilyAdapter):
         ``name_boundingBox_*.vtk``) and mesh dumps (``mesh/vtk``) are not particle dumps and are left out.
         """
         folder = Path(folder)
-        try:
-            lines = self.log_lines(folder)
-        except UserError:
-            return []
+        lines = self.log_lines_if_any(folder)
         found: dict[Path, tuple[int, int]] = {}
         patterns: list[str] = []
         for _dump_id, style, pattern in dump_patterns(lines):
