@@ -10,15 +10,11 @@ prints the median of 5 renderings and the number of SQL queries. Goal: < 0.5 s p
 from __future__ import annotations
 
 import argparse
-import os
-import statistics
 import sys
-import tempfile
 import time
 from datetime import datetime, timedelta, timezone
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from dashboard_timing import dashboard_store, time_pages
 
 
 def generate(total_runs: int) -> dict:
@@ -67,55 +63,21 @@ def generate(total_runs: int) -> dict:
     return {"runs": Run.objects.count(), "cases": n_cases, "machine": machines[0].pk, "target": targets[1].pk}
 
 
-def measure(client, url: str, repeat: int = 5) -> tuple[float, int, int]:
-    """(median seconds, queries, status) of rendering ``url``."""
-    from django.db import connection
-    from django.test.utils import CaptureQueriesContext
-
-    times = []
-    for _ in range(repeat):
-        with CaptureQueriesContext(connection) as ctx:
-            start = time.perf_counter()
-            response = client.get(url)
-            times.append(time.perf_counter() - start)
-    return statistics.median(times), len(ctx.captured_queries), response.status_code
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=10_000, help="runs to generate (default 10000)")
     args = parser.parse_args()
-    with tempfile.TemporaryDirectory(prefix="dashboard-bench-") as home:
-        os.environ["HARNESS_HOME"] = home
-        os.environ.pop("HARNESS_DATABASE_URL", None)
-        os.environ["DJANGO_SETTINGS_MODULE"] = "webfrontend.settings"
-        import django
-        from django.core.management import call_command
-
-        django.setup()
-        call_command("migrate", verbosity=0)
-        from django.test import Client
-        from django.test.utils import setup_test_environment
-
-        setup_test_environment()
+    with dashboard_store() as (home, client):
         start = time.perf_counter()
         info = generate(args.runs)
         print(f"generated {info['runs']} runs over {info['cases']} test cases in "
-              f"{time.perf_counter() - start:.1f} s (SQLite, {Path(home, 'harness.sqlite3').stat().st_size / 1e6:.1f} MB)")
-        client = Client()
+              f"{time.perf_counter() - start:.1f} s (SQLite, {(home / 'harness.sqlite3').stat().st_size / 1e6:.1f} MB)")
         base = f"/m/{info['machine']}/t/{info['target']}/"
         pages = [("overview", "/"), ("overview, consistency mode", "/?mode=consistency"),
                  ("folder root", base), ("folder contact_models", base + "f/contact_models/"),
                  ("folder, failed only", base + "f/contact_models/?show=failed"),
                  ("test case (run list)", base + "f/contact_models/group0/case0000/")]
-        print(f"{'page':32} {'server time':>12} {'queries':>8}")
-        worst = 0.0
-        for name, url in pages:
-            seconds, queries, status = measure(client, url)
-            assert status == 200, (url, status)
-            worst = max(worst, seconds)
-            print(f"{name:32} {seconds * 1000:9.1f} ms {queries:8d}")
-        print(f"slowest page {worst * 1000:.1f} ms (goal < 500 ms): {'ok' if worst < 0.5 else 'TOO SLOW'}")
+        time_pages(client, pages, repeat=5, goal_s=0.5)
     return 0
 
 
