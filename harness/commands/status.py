@@ -68,7 +68,7 @@ def run(args) -> int:
         build = (record_current_build(definition, args.machine) if definition is not None
                  else current_build(target.name, args.machine))
         runs = Run.objects.filter(target=target, machine__name=args.machine)
-        counts = dict(runs.filter(build=build, replaced=False).values_list("state").annotate(n=Count("id"))
+        counts = dict(runs.current(build).values_list("state").annotate(n=Count("id"))
                       .values_list("state", "n")) if build else {}
         older = runs.exclude(build=build).count() if build else runs.count()
         revision = definition.revision if definition else "-"
