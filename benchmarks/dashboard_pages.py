@@ -26,7 +26,7 @@ def main() -> int:
     with dashboard_store() as (home, client):
         # the dashboard tests' store (tests/web, on the path through dashboard_timing) once Django is set up
         from dashboard_data import add_bulk_runs, make_store
-        from harness.models import Run
+        from harness.store.models import Run
 
         s = make_store(home / "runs")
         add_bulk_runs(args.runs - Run.objects.count(), s["ws1"], s["master"], s["new_build"])

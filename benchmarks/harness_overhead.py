@@ -44,8 +44,8 @@ def main(runs: int = 50):
 
     start = time.perf_counter()
     setup_store()
-    from harness.runner import RunOptions, execute_tasks, plan_target, RunReport
-    from harness.targets import load_target_file
+    from harness.execution.scheduler import RunOptions, execute_tasks, plan_target, RunReport
+    from harness.config.targets import load_target_file
 
     target = load_target_file(targets / "trivial.json")
     report = RunReport()

@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from harness.consistency import compare_trajectory, score
+from harness.analysis.consistency import compare_trajectory, score
 
 N = 1_000_000
 

@@ -21,9 +21,9 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import harness.commands as package
-from harness import textout
+from harness.report import textout
 from harness.adapters.base import UserError
-from harness.workspace import Workspace, segment_problem, use_workspace, workspace
+from harness.execution.workspace import Workspace, segment_problem, use_workspace, workspace
 
 
 def _commands():

@@ -6,7 +6,7 @@ socket), which needs the optional ``psycopg`` (``pip install -e .[postgresql]``)
 """
 import os
 
-from harness.workspace import workspace
+from harness.execution.workspace import workspace
 
 SECRET_KEY = os.environ.get("HARNESS_SECRET_KEY", "dev-only-not-secret-change-me-in-production-0123456789")
 USE_TZ = True
@@ -16,7 +16,7 @@ DEFAULT_AUTO_FIELD = "django.db.models.BigAutoField"
 INSTALLED_APPS = [
     "django.contrib.auth",
     "django.contrib.contenttypes",
-    "harness",
+    "harness.store.apps.HarnessConfig",  # app label "harness": the tables and migrations of every store
 ]
 
 

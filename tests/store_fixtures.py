@@ -27,7 +27,7 @@ def store_fixtures(prefix: str):
     @pytest.fixture
     def store(django_store, tmp_path, monkeypatch):
         """An empty store; builds and run folders of this test under ``tmp_path/home``."""
-        from harness.models import Machine, Target, TestCase  # Django is set up by django_store
+        from harness.store.models import Machine, Target, TestCase  # Django is set up by django_store
 
         Machine.objects.all().delete()
         Target.objects.all().delete()

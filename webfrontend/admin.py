@@ -1,6 +1,6 @@
 from django.contrib import admin
 
-from harness.models import Override
+from harness.store.models import Override
 
 
 @admin.register(Override)

@@ -1,7 +1,7 @@
 """Dashboard pages of efficiency (thesis part II): scaling studies and their history over commits, timing
 breakdowns as stacked bars over the commits of a target, and profiles as flame graphs (one run, or two as a
-differential flame graph). Views stay thin: the figures come from ``harness.scaling``, ``harness.breakdown``
-and ``harness.profiles``, the same functions ``harness scaling``, ``compare --profile`` and ``bisect`` use.
+differential flame graph). Views stay thin: the figures come from ``harness.analysis.scaling``, ``harness.analysis.breakdown``
+and ``harness.execution.profiles``, the same functions ``harness scaling``, ``compare --profile`` and ``bisect`` use.
 """
 from __future__ import annotations
 
@@ -11,12 +11,13 @@ from django.http import Http404, JsonResponse
 from django.shortcuts import get_object_or_404, render
 from django.urls import reverse
 
-from harness import breakdown as bd
-from harness import profiles, scaling
-from harness.models import Build, Machine, Run, Target, TestCase
+from harness.analysis import breakdown as bd
+from harness.execution import profiles
+from harness.analysis import scaling
+from harness.store.models import Build, Machine, Run, Target, TestCase
 from webfrontend import params, plots
 
-#: colours of the sections, in harness.breakdown.SECTIONS order (those of the timing bars, parts/timing.html)
+#: colours of the sections, in harness.analysis.breakdown.SECTIONS order (those of the timing bars, parts/timing.html)
 SECTION_COLORS = dict(zip(bd.SECTIONS, ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#7f7f7f")))
 #: commits one breakdown page draws at most per run name (the newest)
 BREAKDOWN_COMMITS = 200

@@ -1,7 +1,7 @@
 """The one form of the dashboard: overruling a failure or an inconsistency with a reason."""
 from django import forms
 
-from harness.rules import CONSISTENT_LEVELS, override_keys
+from harness.store.rules import CONSISTENT_LEVELS, override_keys
 
 
 class OverrideForm(forms.Form):
@@ -20,6 +20,6 @@ class OverrideForm(forms.Form):
 
 def quantity_key(result) -> str:
     """The key an override stores for a quantity: one of those `harness check` honours
-    (harness.rules.override_keys) - the bare name for thermo, "series:quantity" for other series."""
+    (harness.store.rules.override_keys) - the bare name for thermo, "series:quantity" for other series."""
     bare, qualified = override_keys(result.series_name, result.quantity)[:2]
     return bare if result.series_kind == "thermo" else qualified

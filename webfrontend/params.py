@@ -171,9 +171,9 @@ FILTER_NAMES = ("q", "commit", "build", "state", "reason")
 def run_filters(query) -> dict:
     """The search and filters of the run lists, each None when not given: ``q`` (a substring of the test
     case path or the run name), ``commit`` (commit prefix of the run's build), ``build`` (build id),
-    ``state`` (a run state) and ``reason`` (a failure reason, harness.runrecord.FAILURE_REASONS)."""
-    from harness.models import Run
-    from harness.runrecord import FAILURE_REASONS
+    ``state`` (a run state) and ``reason`` (a failure reason, harness.store.runrecord.FAILURE_REASONS)."""
+    from harness.store.models import Run
+    from harness.store.runrecord import FAILURE_REASONS
 
     return {"q": text(query, "q"), "commit": commit_prefix(query, "commit"), "build": optional_id(query, "build"),
             "state": choice(query, "state", Run.State.values),

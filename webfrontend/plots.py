@@ -29,7 +29,7 @@ import math
 DEFAULT_UNITS = {
     "step": "1", "atoms": "1", "natoms": "1", "ke": "J", "kineng": "J", "rke": "J", "c_rke": "J",
     "time": "s", "t": "s", "dt": "s", "cpu": "s", "pe": "J", "etotal": "J", "press": "Pa",
-    # aggregates of VTK particle dumps (harness/postprocess.py vtk_aggregates)
+    # aggregates of VTK particle dumps (harness/execution/postprocess.py vtk_aggregates)
     "particles": "1", "ke_per_mass": "J/kg", "vx_mean": "m/s", "vy_mean": "m/s", "vz_mean": "m/s",
     "x_min": "m", "x_max": "m", "y_min": "m", "y_max": "m", "z_min": "m", "z_max": "m",
 }
@@ -72,7 +72,7 @@ def _json(values) -> list:
 
 
 def _vtk_ke_per_mass(series) -> bool:
-    """Whether a VTK dump series' ``ke`` is per unit mass: harness.postprocess.vtk_aggregates gives ``ke``
+    """Whether a VTK dump series' ``ke`` is per unit mass: harness.execution.postprocess.vtk_aggregates gives ``ke``
     in J only when the dumps carry masses (or radii and a density), otherwise the same numbers as its
     ``ke_per_mass`` column, in J/kg."""
     cols = series.columns if isinstance(series.columns, dict) else {}
@@ -102,9 +102,9 @@ def _declared_label(text: str) -> str:
 def quantities(series, consistency: dict | None = None) -> list[str]:
     """Plottable columns of a series: numeric lists other than the abscissa, in the order the series had when
     it was read (``meta["order"]``: PostgreSQL's jsonb keeps no key order), else in stored order. A thermo
-    axis column (step, time: harness.consistency.AXIS_COLUMNS) is left out unless the run configuration's
+    axis column (step, time: harness.analysis.consistency.AXIS_COLUMNS) is left out unless the run configuration's
     ``consistency`` names it, as the check does."""
-    from harness.consistency import AXIS_COLUMNS, axis_asked
+    from harness.analysis.consistency import AXIS_COLUMNS, axis_asked
 
     cols = series.columns if isinstance(series.columns, dict) else {}
     order = (series.meta or {}).get("order")
@@ -243,7 +243,7 @@ def difference_plot(curves: list[tuple[str, object]], quantity: str) -> dict | N
 
 
 def expectation_overlays(config: dict, series_name: str, column: str) -> list[dict]:
-    """Lines of the run configuration's expectations on ``SERIES.COLUMN`` (harness/acceptance.py): the
+    """Lines of the run configuration's expectations on ``SERIES.COLUMN`` (harness/config/acceptance.py): the
     expected value with its tolerance band, or the lower/upper bounds. The bounds apply to the reduced
     value (``at``: end, start, min, max, mean), which the legend names."""
     out = []
@@ -288,7 +288,7 @@ def consistency_plots(result, run_series, reference_series, run_label: str, refe
     the deviation x - x_ref against the bands' half widths (what the overlay cannot show when the curves
     lie on each other).
 
-    ``result`` is a ConsistencyResult (or harness.consistency.QuantityResult): quantity, C, level, eps,
+    ``result`` is a ConsistencyResult (or harness.analysis.consistency.QuantityResult): quantity, C, level, eps,
     first step out of band; the series hold the data.
     """
     quantity = result.quantity
@@ -350,7 +350,7 @@ def history_plots(labels: list[str], lines: dict[str, dict], changes: list[dict]
 
     ``labels`` are the commits oldest first (the abscissa is their index); ``lines`` maps a run
     configuration name to ``{"c": [...], "stepping": [...], "wall": [...]}`` (None where it has no run);
-    ``changes`` are ``{"index", "label"}`` of the commits harness.regressions marked.
+    ``changes`` are ``{"index", "label"}`` of the commits harness.analysis.regressions marked.
     """
     markers = [{"x": c["index"], "label": c["label"], "color": MARKER_COLOR} for c in changes]
     x = list(range(len(labels)))
@@ -390,9 +390,9 @@ def positive(values: list) -> list:
 
 
 def sweep_plots(table, spec: dict, title: str) -> list[dict]:
-    """A sweep (harness.sweep.SweepResult.table, its spec) as two log-log plots: error against run time (what
+    """A sweep (harness.config.sweep.SweepResult.table, its spec) as two log-log plots: error against run time (what
     accuracy costs) and error against the swept value with an order-2 reference slope."""
-    from harness.sweep import observed_order
+    from harness.config.sweep import observed_order
 
     variable, quantity = spec["variable"], spec["error"]["quantity"]
     rows = [r for r in table.itertuples() if finite_or_none(r.error) and r.error > 0]

@@ -29,7 +29,7 @@ def commit_link(build, commit_url: str | None) -> dict:
 
 
 #: a stepping-time change smaller than this share is not marked slower or faster (the smallest change
-#: harness.regressions.speed_changes reports)
+#: harness.analysis.regressions.speed_changes reports)
 SPEED_MARK = 0.1
 
 
@@ -76,8 +76,8 @@ def tail(text: str, limit: int) -> dict:
 
 def provenance(run) -> dict:
     """What a run's verdict was computed on, in short forms: the target's commit, the test case content
-    hash and the reference run (its target and commit), with harness.check's one-line text as ``text``."""
-    from harness.check import provenance as provenance_text
+    hash and the reference run (its target and commit), with harness.analysis.check's one-line text as ``text``."""
+    from harness.analysis.check import provenance as provenance_text
 
     reference = run.reference_run if run.reference_run_id else None
     return {"commit": (run.build.commit or "")[:10], "testcase": run.short_hash,
@@ -174,9 +174,9 @@ def run_plots(run, series, reference=None, reference_series=()) -> list[dict]:
 
     With a ``reference`` run (the one the check scores against, ``RunQuerySet.reference_for``) every plot
     overlays it: a quantity the check scores is drawn over the reference with its 5 % and 10 % acceptance
-    bands (harness.consistency.compare_runs, thesis fig. 4.11), a declared plot with the reference's curves.
+    bands (harness.analysis.consistency.compare_runs, thesis fig. 4.11), a declared plot with the reference's curves.
     """
-    from harness.consistency import compare_runs
+    from harness.analysis.consistency import compare_runs
 
     consistency = (run.config or {}).get("consistency")
     by_key = {(s.kind, s.name): s for s in reference_series}
@@ -218,9 +218,9 @@ def _series_by_run(series) -> dict:
 def compare_plots(runs, series) -> list[dict]:
     """Plots of compared runs, per quantity of every series some compared run has: all runs overlaid; for
     two runs the consistency bands of the second around the first and its deviation from it
-    (harness.consistency.compare_runs, the score ``harness compare`` gives), for more each run's difference
+    (harness.analysis.consistency.compare_runs, the score ``harness compare`` gives), for more each run's difference
     to the first."""
-    from harness.consistency import compare_runs
+    from harness.analysis.consistency import compare_runs
 
     by_key = _series_by_run(series)
     out = []
@@ -257,7 +257,7 @@ def consistency_plots(results) -> list[dict]:
     results = [r for r in results if r.series_kind != "textfile" and r.value is not None]
     if not results:
         return []
-    from harness.models import Series
+    from harness.store.models import Series
 
     run_ids = {r.run_id for r in results} | {r.reference_run_id for r in results}
     stored = {(s.run_id, s.kind, s.name): s for s in Series.objects.filter(
@@ -273,7 +273,7 @@ def consistency_plots(results) -> list[dict]:
 
 
 def _history_of(target, case, machine):
-    from harness.regressions import histories
+    from harness.analysis.regressions import histories
 
     # -k is a substring unless it holds glob characters; the test case is then matched exactly below
     pattern = None if any(c in case.path for c in "*?[") else case.path
@@ -281,7 +281,7 @@ def _history_of(target, case, machine):
 
 
 def history_plots(target, case, machine) -> list[dict]:
-    """C, stepping time and wall time of a test case over the commits of a target (harness.regressions:
+    """C, stepping time and wall time of a test case over the commits of a target (harness.analysis.regressions:
     its histories and the commits it marks)."""
     found = _history_of(target, case, machine)
     commits: dict[str, object] = {}
@@ -305,9 +305,9 @@ def history_plots(target, case, machine) -> list[dict]:
 
 
 def regression_rows(found, machine) -> list[dict]:
-    """One row per marked commit of harness.regressions.histories, newest first, linking to the run and the
+    """One row per marked commit of harness.analysis.regressions.histories, newest first, linking to the run and the
     test case's history."""
-    from harness.models import Run
+    from harness.store.models import Run
 
     rows = []
     for h in found:
@@ -329,14 +329,14 @@ def build_label(build) -> str:
 
 
 def comparison_rows(comparison, limit: int | None = None) -> list[dict]:
-    """The rows of ``harness compare`` (harness.compare.rows: same cells, same order), each with its pair so a
+    """The rows of ``harness compare`` (harness.analysis.compare.rows: same cells, same order), each with its pair so a
     row can link to the two runs and their plots; the first ``limit`` of them (None: all).
 
     Each row's cells come from ``rows`` over that pair alone, so that the dashboard's cells are the CLI's; the
-    order is the one ``rows`` gives the whole comparison (harness.compare.row_order). Only the rows shown are
+    order is the one ``rows`` gives the whole comparison (harness.analysis.compare.row_order). Only the rows shown are
     made: with 10,000 pairs, the others would cost most of the page's time.
     """
-    from harness.compare import Comparison, row_order, rows
+    from harness.analysis.compare import Comparison, row_order, rows
 
     out = []
     for pair in sorted(comparison.pairs, key=row_order)[:limit]:
@@ -351,7 +351,7 @@ def comparison_rows(comparison, limit: int | None = None) -> list[dict]:
 
 
 def expectation_rows(files) -> list[dict]:
-    """The expectation and stability results of a run (``verdicts`` in its run.json, harness/execute.py:
+    """The expectation and stability results of a run (``verdicts`` in its run.json, harness/execution/execute.py:
     ``{"ok", "reason", "message"}`` each), failed ones first; [] when the record has none or is unreadable."""
     import json
 
@@ -368,12 +368,12 @@ def expectation_rows(files) -> list[dict]:
 
 
 def matrix_blocks(matrix, run_ids: dict) -> list[dict]:
-    """``harness matrix``'s tables (harness.matrix.format_matrix) as rows of cells: one square table per test
+    """``harness matrix``'s tables (harness.analysis.matrix.format_matrix) as rows of cells: one square table per test
     case run and quantity (rows the scored code, columns the reference), the particle count only where a cell
     is not perfect; each cell with its C as the CLI prints it and a link to the two runs compared, the
     reference first (the code's run in the bands around the reference's). ``run_ids`` is
     RunQuerySet.matrix_runs of the same targets."""
-    from harness.matrix import QUANTITIES, _c, _short
+    from harness.analysis.matrix import QUANTITIES, _c, _short
 
     blocks = []
     for (testcase, run_name), present in matrix.runs.items():

@@ -2,7 +2,7 @@
 
 Every path a request names is resolved and must stay inside the run folder (no ``../``, no symlink out).
 File names come from where they are decided: the engine's log from the adapter of the run's target
-(``harness.adapters``), console output and post script log from ``harness.execute``.
+(``harness.adapters``), console output and post script log from ``harness.execution.execute``.
 """
 from __future__ import annotations
 
@@ -14,9 +14,9 @@ from pathlib import Path
 from django.conf import settings
 
 from harness.adapters import UserError, get_adapter
-from harness.execute import POST_LOG, RECORD_FILE, STDERR, STDOUT
+from harness.execution.execute import POST_LOG, RECORD_FILE, STDERR, STDOUT
 
-#: the adapter of a target whose definition names none (harness/targets.py: ``engine`` defaults to dem)
+#: the adapter of a target whose definition names none (harness/config/targets.py: ``engine`` defaults to dem)
 DEFAULT_ENGINE = "dem"
 SCRIPT_KEYS = ("script", "input", "input_script")
 RECORD_NAME = RECORD_FILE

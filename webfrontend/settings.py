@@ -6,7 +6,7 @@ DEBUG is off unless ``HARNESS_DEBUG=1``: Django's debug pages show settings and 
 """
 import os
 
-from harness.workspace import workspace
+from harness.execution.workspace import workspace
 from harness.settings import *  # noqa: F401,F403  (the same store the CLI writes)
 from harness.settings import INSTALLED_APPS as _STORE_APPS
 

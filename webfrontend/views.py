@@ -1,4 +1,4 @@
-"""Views of the dashboard (thesis 4.6): each a query (harness/queries.py) and a render.
+"""Views of the dashboard (thesis 4.6): each a query (harness/store/queries.py) and a render.
 
 Anonymous users read everything; only a logged-in user may overrule (POST with CSRF token). Every query
 string value is read through webfrontend.params (a bad one is a 400 naming it), every path value through
@@ -18,11 +18,11 @@ from django.urls import reverse
 from django.utils.http import urlencode
 from django.views.decorators.http import require_POST
 
-from harness.builds import current_build
-from harness.models import Build, ConsistencyResult, Machine, Override, Run, Series, Target, TestCase
-from harness.coverage import covered_runs, failed_current_builds
-from harness.queries import CONSISTENCY_CATEGORIES, STATE_CATEGORIES, stepping_changes
-from harness.verdicts import stored_junit_xml, stored_verdict
+from harness.execution.builds import current_build
+from harness.store.models import Build, ConsistencyResult, Machine, Override, Run, Series, Target, TestCase
+from harness.analysis.coverage import covered_runs, failed_current_builds
+from harness.store.queries import CONSISTENCY_CATEGORIES, STATE_CATEGORIES, stepping_changes
+from harness.analysis.verdicts import stored_junit_xml, stored_verdict
 from webfrontend import params, plots, presentation
 from webfrontend.forms import OverrideForm
 from webfrontend.runfiles import RunFolder
@@ -50,7 +50,7 @@ def _mode(request) -> tuple[str, str | None]:
 def _filters(request) -> dict:
     """The run lists' search and filters (webfrontend.params.run_filters) and what their pages need: the
     values, the query string that keeps them in every link (``filter_query``), the choices of the form."""
-    from harness.runrecord import FAILURE_REASONS
+    from harness.store.runrecord import FAILURE_REASONS
 
     values = params.run_filters(request.GET)
     kept = {k: v for k, v in values.items() if v is not None}
@@ -309,7 +309,7 @@ def history(request, target_id, testcase):
 
 def history_plots(request, target_id, testcase):
     """C, stepping time and wall time of the test case over the commits of the target, with the commits
-    harness.regressions marks (on the machine named, else the machine of the newest run)."""
+    harness.analysis.regressions marks (on the machine named, else the machine of the newest run)."""
     target, case, machine_id, runs = _history_runs(request, target_id, testcase)
     if machine_id is not None:
         machine = get_object_or_404(Machine, pk=machine_id)
@@ -322,9 +322,9 @@ def history_plots(request, target_id, testcase):
 
 
 def regressions(request):
-    """The commits where a test case's stepping time or a quantity changed (harness.regressions.histories,
+    """The commits where a test case's stepping time or a quantity changed (harness.analysis.regressions.histories,
     as ``harness regressions`` prints them), on one machine, optionally of one target and ``-k`` pattern."""
-    from harness.regressions import comparable, histories
+    from harness.analysis.regressions import comparable, histories
 
     machine = _one_machine(request, "regressions")
     target_id = params.optional_id(request.GET, "target")
@@ -353,14 +353,14 @@ def _one_machine(request, view: str):
 
 
 def sweeps(request):
-    from harness.sweep import current_sweeps
+    from harness.config.sweep import current_sweeps
 
     return render(request, "webfrontend/sweeps.html", {"sweeps": current_sweeps()})
 
 
 def sweep_plots(request, build_id, testcase, name):
     """A sweep's error against run time and against the swept value, from the store (no image drawn)."""
-    from harness.sweep import find_sweep
+    from harness.config.sweep import find_sweep
 
     build = get_object_or_404(Build.objects.select_related("target"), pk=build_id)
     result = find_sweep(build, testcase, name)
@@ -390,8 +390,8 @@ def commit_page(request, target, commit):
     """What a commit did to a target: its build on one machine (``?machine=NAME``, else the machine of its newest
     build of that commit), the verdict of its runs, and against the build of the commit before (history order):
     new failures, fixes, inconsistencies and the stepping-time change - what ``harness compare`` prints."""
-    from harness.compare import HEADER, compare_builds, summary
-    from harness.queries import fold_into_children, previous_builds
+    from harness.analysis.compare import HEADER, compare_builds, summary
+    from harness.store.queries import fold_into_children, previous_builds
 
     target_row = get_object_or_404(Target, name=target)
     builds = Build.objects.filter(target=target_row, commit__startswith=commit.lower()).select_related(
@@ -433,9 +433,9 @@ def _reference_and_current() -> tuple[int, int] | None:
 
 
 def compare_builds_page(request):
-    """Two builds side by side: what ``harness compare A B`` prints (harness.compare.compare_builds), each row
+    """Two builds side by side: what ``harness compare A B`` prints (harness.analysis.compare.compare_builds), each row
     linking to the two runs' comparison with the consistency bands of B around A."""
-    from harness.compare import HEADER, compare_builds, summary
+    from harness.analysis.compare import HEADER, compare_builds, summary
 
     a_id, b_id = params.optional_id(request.GET, "a"), params.optional_id(request.GET, "b")
     defaulted = a_id is None and b_id is None
@@ -461,7 +461,7 @@ def compare_builds_page(request):
 
 
 def junit(request):
-    """JUnit XML of the current builds' runs by harness.check's writer: what `harness check --junit` writes
+    """JUnit XML of the current builds' runs by harness.analysis.check's writer: what `harness check --junit` writes
     for the same runs. One machine per report, as the CLI writes it (runs of two machines would collide)."""
     machine = params.optional_id(request.GET, "machine")
     target = params.optional_id(request.GET, "target")
@@ -489,9 +489,9 @@ MATRIX_TARGET_LIMIT = 12
 
 
 def _matrix(request):
-    """(machine, target names, -k pattern, harness.matrix.Matrix or None) of a matrix request: the targets
+    """(machine, target names, -k pattern, harness.analysis.matrix.Matrix or None) of a matrix request: the targets
     named (``?target=ID``, in that order), else those named ``*-crosscode`` as ``harness matrix`` takes them."""
-    from harness.matrix import build_matrix
+    from harness.analysis.matrix import build_matrix
 
     machine = _one_machine(request, "matrix")
     ids = params.id_list(request.GET, "target", MATRIX_TARGET_LIMIT, "targets")
@@ -514,13 +514,13 @@ def _matrix(request):
 
 
 def matrix(request):
-    """The cross-code consistency matrix (harness.matrix.build_matrix, what ``harness matrix`` prints): C of
+    """The cross-code consistency matrix (harness.analysis.matrix.build_matrix, what ``harness matrix`` prints): C of
     every target's run against every other target's run of the same test case content, per quantity; each
     cell links to the comparison of the two runs with the code's run in the bands around the reference's."""
     machine, names, pattern, result = _matrix(request)
     blocks, lowest = [], []
     if result is not None:
-        from harness.matrix import _c
+        from harness.analysis.matrix import _c
 
         blocks = presentation.matrix_blocks(result, Run.objects.matrix_runs(names, machine.name))
         lowest = [{"code": code, "reference": reference, "cell": cell, "text": _c(cell.value)}
@@ -536,8 +536,8 @@ def matrix(request):
 
 
 def matrix_json(request):
-    """The matrix as ``harness matrix --json`` writes it (harness.matrix.to_json)."""
-    from harness.matrix import Matrix, to_json
+    """The matrix as ``harness matrix --json`` writes it (harness.analysis.matrix.to_json)."""
+    from harness.analysis.matrix import Matrix, to_json
 
     _, names, _, result = _matrix(request)
     return JsonResponse(to_json(result if result is not None else Matrix(names)),

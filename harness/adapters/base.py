@@ -13,7 +13,7 @@ import subprocess
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from harness.breakdown import from_timing
+from harness.analysis.breakdown import from_timing
 
 
 class UserError(Exception):
@@ -83,7 +83,7 @@ def is_open_mpi(launcher: str) -> bool:
 
 def with_open_mpi_flags(mpi: list[str]) -> list[str]:
     """The launcher prefix ``mpi`` (``["mpirun", "-np", "4"]``) with the flags Open MPI needs in a container,
-    added only where needed - the one place they are added (``harness.planning.mpi_prefix`` calls it):
+    added only where needed - the one place they are added (``harness.execution.planning.mpi_prefix`` calls it):
 
     - ``--allow-run-as-root``: Open MPI refuses to start as root (uid 0, usual in containers and CI);
     - ``--oversubscribe``: Open MPI refuses ``-np`` above the number of cores it detects.
@@ -132,7 +132,7 @@ class EngineAdapter:
     first_run_note = ""
     #: harness name -> the code's own thermo column name, used when neither target nor run.config maps it
     default_thermo_columns: dict[str, str] = {}
-    #: how a scaling study (``harness.scaling``) gives this code more cores: "mpi" ranks or "threads"
+    #: how a scaling study (``harness.analysis.scaling``) gives this code more cores: "mpi" ranks or "threads"
     parallelism = "mpi"
     #: how ``harness run --profile`` samples it: "perf" (``perf record -g`` of a native program) or "phases"
     #: (the code's own phase timers, for an interpreted program whose native stacks say nothing)
@@ -192,7 +192,7 @@ class EngineAdapter:
         ``[MPI PREFIX] EXECUTABLE -in SCRIPT -var NAME VALUE ... -log LOG``.
 
         ``mpi`` is the launcher prefix (e.g. ``["mpirun", "-np", "4"]``, with its Open MPI flags already
-        added by ``harness.planning.mpi_prefix``) for mpi runs, else None.
+        added by ``harness.execution.planning.mpi_prefix``) for mpi runs, else None.
         """
         command = list(mpi or []) + list(executable) + ["-in", script]
         for name, value in (variables or {}).items():
@@ -216,7 +216,7 @@ class EngineAdapter:
         return []
 
     def read_breakdown(self, folder: Path, timing: dict | None = None) -> dict:
-        """The timing breakdown in the harness' sections (``harness.breakdown``): pair, neighbor, communication,
+        """The timing breakdown in the harness' sections (``harness.analysis.breakdown``): pair, neighbor, communication,
         modify, output, other, with min/avg/max over ranks where the code prints them. By default the
         sections of ``read_timing`` (averages only); codes that print more override it."""
 
@@ -231,7 +231,7 @@ class EngineAdapter:
 
     def largest_overlaps(self, folder: Path) -> list[float]:
         """The largest particle overlap / radius the engine reported, per run block ([]: it reports none);
-        the default blow-up check of harness.acceptance reads it when thermo has no max_overlap column."""
+        the default blow-up check of harness.config.acceptance reads it when thermo has no max_overlap column."""
         return []
 
     def run_environment(self, config: dict) -> dict[str, str]:

@@ -13,10 +13,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from harness.acceptance import blowup_limit
+from harness.config.acceptance import blowup_limit
 from harness.adapters import register
 from harness.adapters.base import EngineAdapter, LogScan, LoopBlock, UserError
-from harness.postprocess import dump_step
+from harness.execution.postprocess import dump_step
 
 TIMING_KEYS = ("pair", "neigh", "comm", "modify", "output", "other", "total")
 #: the engine's line after each run block (engine/runner.py): loop time, steps, particles, its rates

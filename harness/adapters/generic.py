@@ -30,7 +30,7 @@ whose first group is seconds, summed over the log's matching lines. ``errors`` /
 expressions for log, stdout and stderr lines (defaults ``^ERROR`` / ``^WARNING``). ``vtk``: glob patterns of
 the particle dumps (VTK files), in step order.
 
-Every problem of the file is one line naming it and the JSON path (``harness.jsonfile``).
+Every problem of the file is one line naming it and the JSON path (``harness.config.jsonfile``).
 """
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ THERMO_KNOWN = {"csv", "delimiter", "log_pattern", "file", "columns"}
 
 
 def _strings(problems, where: str, value, what: str = "a list of strings") -> bool:
-    from harness.jsonfile import expect_type
+    from harness.config.jsonfile import expect_type
 
     if not expect_type(problems, where, value, list, what):
         return False
@@ -57,7 +57,7 @@ def _strings(problems, where: str, value, what: str = "a list of strings") -> bo
 
 
 def _regex(problems, where: str, value) -> None:
-    from harness.jsonfile import expect_type
+    from harness.config.jsonfile import expect_type
 
     if expect_type(problems, where, value, str, "a regular expression (string)"):
         try:
@@ -68,7 +68,7 @@ def _regex(problems, where: str, value) -> None:
 
 def validate(data, path: Path) -> None:
     """Raise a UserError listing every problem of a generic adapter file (``$.json.path: what``)."""
-    from harness.jsonfile import Problems, expect_type, json_path
+    from harness.config.jsonfile import Problems, expect_type, json_path
 
     problems = Problems(path)
     if not isinstance(data, dict):
@@ -145,8 +145,8 @@ class GenericAdapter(EngineAdapter):
     def from_file(cls, file: str) -> "GenericAdapter":
         """The adapter described by ``file`` (absolute, or relative to the project folder); its name is
         ``generic:FILE`` as written, so that a run record names the same adapter again."""
-        from harness.jsonfile import load_json
-        from harness.workspace import PROJECT_ROOT
+        from harness.config.jsonfile import load_json
+        from harness.execution.workspace import PROJECT_ROOT
 
         if not file:
             raise UserError("engine 'generic:': name the adapter file, e.g. generic:targets/adapters/mycode.json")
@@ -260,7 +260,7 @@ class GenericAdapter(EngineAdapter):
         return scan
 
     def vtk_files(self, folder):
-        from harness.postprocess import dump_step
+        from harness.execution.postprocess import dump_step
 
         folder = Path(folder)
         found = []

@@ -42,7 +42,7 @@ from harness.adapters.lammps_family import (
     dump_patterns,
     erotate_compute_ids,
 )
-from harness.breakdown import add_block, imbalance_of_sections
+from harness.analysis.breakdown import add_block, imbalance_of_sections
 
 #: log file name the harness passes with ``-log`` (LAMMPS' own default is ``log.lammps`` too)
 LOG_NAME = "log.lammps"
@@ -99,14 +99,14 @@ def parse_timing(lines: list[str]) -> dict[str, float]:
     return timing
 
 
-#: LAMMPS' table rows onto the harness' sections (harness.breakdown); Bond and Kspace count as pair work
+#: LAMMPS' table rows onto the harness' sections (harness.analysis.breakdown); Bond and Kspace count as pair work
 BREAKDOWN_SECTIONS = {"Pair": "pair", "Bond": "pair", "Kspace": "pair", "Neigh": "neighbor",
                       "Comm": "communication", "Output": "output", "Modify": "modify", "Other": "other"}
 
 
 def parse_breakdown(lines: list[str]) -> dict:
     """Sections with min/avg/max over ranks from every "MPI task timing breakdown" table, summed over blocks;
-    load imbalance max/avg of the pair time (``harness.breakdown``)."""
+    load imbalance max/avg of the pair time (``harness.analysis.breakdown``)."""
 
     breakdown: dict = {}
     block = None

@@ -29,7 +29,7 @@ from harness.adapters.lammps_family import (
     dump_patterns,
     erotate_compute_ids,
 )
-from harness.breakdown import add_block
+from harness.analysis.breakdown import add_block
 
 #: log file name the harness passes with ``-log`` (LIGGGHTS' own default is ``log.liggghts`` too)
 LOG_NAME = "log.liggghts"
@@ -92,7 +92,7 @@ class LiggghtsAdapter(LammpsFamilyAdapter):
         return timing
 
     def read_breakdown(self, folder, timing=None):
-        """The breakdown of every ``Loop time`` block, summed (``harness.breakdown``).
+        """The breakdown of every ``Loop time`` block, summed (``harness.analysis.breakdown``).
 
         LIGGGHTS 3.8 prints each section's time averaged over ranks (no min/max; src/finish.cpp), so the load
         imbalance is that of the particles: max/avg of ``Nlocal`` summed over the blocks.

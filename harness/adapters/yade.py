@@ -33,7 +33,7 @@ LOG_NAME = "log.yade"
 SUPPORT = Path(__file__).resolve().parent / "yade_support"
 LAUNCHER = SUPPORT / "launch.py"
 TIMING_KEYS = ("pair", "neigh", "comm", "modify", "output", "other", "total")
-#: VTKRecorder array names -> the names harness.postprocess reads
+#: VTKRecorder array names -> the names harness.execution.postprocess reads
 VTK_ARRAYS = {"linVelVec": "v", "angVelVec": "omega", "radii": "radius", "mass": "mass", "ids": "id"}
 _SPHERES = re.compile(r"spheres\.(\d+)\.vtu$")
 

@@ -1,7 +1,7 @@
 """Finding the commit that broke a target (``harness bisect TARGET GOOD BAD``), in about log2(n) builds.
 
 GOOD is run once as the baseline. Then, between GOOD and BAD (git's ``GOOD..BAD``: every commit reachable
-from BAD and not from GOOD), a commit is *bad* when its runs, compared with GOOD's by ``harness.compare``,
+from BAD and not from GOOD), a commit is *bad* when its runs, compared with GOOD's by ``harness.analysis.compare``,
 have a new failure or an inconsistency - or, with ``slower``, when the geometric mean of its stepping-time
 ratios to GOOD reaches that factor. The search keeps the invariant "last known good < first bad" and halves
 the interval each step; a commit that cannot be built is skipped (the nearest buildable commit is tried), as
@@ -11,12 +11,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from harness import gitrepo
+from harness.config import gitrepo
 from harness.adapters.base import UserError
-from harness.builds import record_current_build
-from harness.compare import Comparison, compare_builds
-from harness.revisions import at_revision
-from harness.runner import RunOptions, run_targets
+from harness.execution.builds import record_current_build
+from harness.analysis.compare import Comparison, compare_builds
+from harness.config.revisions import at_revision
+from harness.execution.scheduler import RunOptions, run_targets
 
 
 @dataclass
@@ -105,9 +105,9 @@ def bisect(target, good: str, bad: str, machine: str, pattern: str | None = None
 
 def _run(target, commit: str, options: RunOptions, say):
     """Build and run ``target`` at ``commit``; its build, or None when it cannot be built (its failed build
-    is stored, ``harness.builds``: a second bisect over the same commits does not build it again)."""
+    is stored, ``harness.execution.builds``: a second bisect over the same commits does not build it again)."""
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Build
+    from harness.store.models import Build
 
     pinned = at_revision(target, commit)
     report = run_targets([pinned], options, out=_Lines(say))
@@ -121,7 +121,7 @@ def _run(target, commit: str, options: RunOptions, say):
 def _build_error(target, commit: str, machine: str) -> str:
     """The first error line of the stored failed build of ``target`` at ``commit`` (or a placeholder)."""
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Build
+    from harness.store.models import Build
 
     build = (Build.objects.filter(target__name=target.name, machine__name=machine, commit=commit,
                                   status=Build.Status.FAILED).order_by("-finished").first())

@@ -7,7 +7,7 @@ them (LAMMPS' "MPI task timing breakdown" table; LIGGGHTS 3.8 prints averages on
     {"sections": {"pair": {"avg": 1.2, "min": 1.1, "max": 1.4}, "neighbor": {"avg": 0.1}, ...},
      "total": 2.0, "ranks": 2, "imbalance": 1.17, "imbalance_of": "pair time"}
 
-``total`` is the loop time (the stepping time of ``harness.runrecord.stepping_time_of``), ``ranks`` the MPI
+``total`` is the loop time (the stepping time of ``harness.store.runrecord.stepping_time_of``), ``ranks`` the MPI
 ranks (1 for serial and threaded runs). Load imbalance is max/avg over ranks (thesis ch. 7.2): of the pair
 time where the code prints per-rank times, else of the particles per rank (``Nlocal ... ave ... max``); 1 is
 perfect balance, 2 on two ranks means one rank did all the work.

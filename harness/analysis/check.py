@@ -1,9 +1,9 @@
 """``harness check``: version consistency of a target's runs against its reference target, and JUnit XML.
 
-Which runs get a verdict is ``harness.coverage``'s one rule: every selected run configuration of the
+Which runs get a verdict is ``harness.analysis.coverage``'s one rule: every selected run configuration of the
 target's current build (broken ones failed with reason config, runs not executed failures of the gate unless
 ``allow_missing``). For every run of the target's current build
-(``harness.builds.record_current_build``: the build of the commit the revision resolves to now) at the test case content of now, the reference run is chosen by
+(``harness.execution.builds.record_current_build``: the build of the commit the revision resolves to now) at the test case content of now, the reference run is chosen by
 ``RunQuerySet.find_reference``: same test case, run name and content, by the reference target. A run
 whose test case changed since it ran is stale (a failure: run it again); a reference run of other content is
 never scored against, and is reported as stale. Results go to ``ConsistencyResult`` rows and
@@ -17,19 +17,19 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from harness import junit
+from harness.report import junit
 from harness.adapters.base import UserError
-from harness.builds import failed_build, failure_message, record_current_build
-from harness.consistency import QuantityResult, compare_runs, run_level
-from harness.coverage import (
+from harness.execution.builds import failed_build, failure_message, record_current_build
+from harness.analysis.consistency import QuantityResult, compare_runs, run_level
+from harness.analysis.coverage import (
     covered_runs,
     earlier_content_run,
     record_build_failure,
     record_selection,
     selected,
 )
-from harness.junit import provenance  # noqa: F401  (what a verdict was computed on; the dashboard shows it)
-from harness.rules import WHOLE_RUN, gate_status, override_for, quantity_fails
+from harness.report.junit import provenance  # noqa: F401  (what a verdict was computed on; the dashboard shows it)
+from harness.store.rules import WHOLE_RUN, gate_status, override_for, quantity_fails
 
 
 @dataclass
@@ -50,7 +50,7 @@ class CheckReport:
     problems: list[str] = field(default_factory=list)
     #: reference runs of other test case content than the runs they would be compared with
     stale_references: list[str] = field(default_factory=list)
-    #: failed builds of the targets' revisions (``harness.builds.failed_build``): one JUnit failure each
+    #: failed builds of the targets' revisions (``harness.execution.builds.failed_build``): one JUnit failure each
     failed_builds: list = field(default_factory=list)
 
     @property
@@ -64,7 +64,7 @@ def series_of(run) -> list[dict]:
 
 
 def _overrides(run) -> dict[str, str]:
-    """override quantity ('' = whole run, ``harness.rules.WHOLE_RUN``) -> 'user: reason' of the reviewer's
+    """override quantity ('' = whole run, ``harness.store.rules.WHOLE_RUN``) -> 'user: reason' of the reviewer's
     overrides."""
     out = {}
     for override in run.overrides.all():  # prefetched with their users by the callers that list many runs
@@ -80,7 +80,7 @@ def check_run(run, reference_target: str | None) -> list[QuantityResult]:
     from django.db import transaction
 
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import ConsistencyResult, Run
+    from harness.store.models import ConsistencyResult, Run
 
     if run.state not in ("post_processed", "consistency_checked") or not reference_target:
         return []
@@ -108,8 +108,8 @@ def check_run(run, reference_target: str | None) -> list[QuantityResult]:
 
 def verdict_of(run, results: list[QuantityResult], has_reference_target: bool,
                allow_missing: bool = False) -> RunVerdict:
-    """The verdict on one covered run (``harness.coverage``), its status by ``harness.rules.gate_status`` (a
-    reviewer's override honoured by ``harness.rules.override_for``, as in ``harness.rules.is_accepted``), with
+    """The verdict on one covered run (``harness.analysis.coverage``), its status by ``harness.store.rules.gate_status`` (a
+    reviewer's override honoured by ``harness.store.rules.override_for``, as in ``harness.store.rules.is_accepted``), with
     the message that says why: the failure, the stale or not executed run (kind ``stale`` when a run of earlier test
     case content exists), the inconsistent quantities, and what reviewers accepted."""
     overrides = _overrides(run)
@@ -153,10 +153,10 @@ def verdict_of(run, results: list[QuantityResult], has_reference_target: bool,
 def check_targets(targets, machine: str, pattern: str | None = None, allow_missing: bool = False) -> CheckReport:
     """Check every selected run configuration of each target's current build at the test case content of
     now (``pattern``: only runs whose ``testcase/run`` match, as ``-k``): the store is first brought in line
-    with the selection (``harness.coverage.record_selection``), then every covered run gets a verdict -
+    with the selection (``harness.analysis.coverage.record_selection``), then every covered run gets a verdict -
     broken configurations and runs not executed included. A target whose revision does not build: its runs
     are failed with reason build_failed, the build is in ``failed_builds`` and a problem."""
-    from harness.models import (
+    from harness.store.models import (
         Run,  # the store's models load once Django is set up (harness.store)
     )
 
@@ -204,7 +204,7 @@ def check_targets(targets, machine: str, pattern: str | None = None, allow_missi
 
 
 def junit_xml(report: CheckReport) -> str:
-    """JUnit XML of a check (``harness.junit``, the writer the dashboard uses too)."""
+    """JUnit XML of a check (``harness.report.junit``, the writer the dashboard uses too)."""
     return junit.junit_xml(report.verdicts, report.failed_builds)
 
 

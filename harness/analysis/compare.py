@@ -2,7 +2,7 @@
 
 Runs of A and B are paired by test case, run name and test case content (runs of other content are not
 comparable and are listed as such). For each pair, B is scored against A with the consistency score of
-``harness.consistency`` (A is the reference: C per quantity, first step out of band) plus the largest
+``harness.analysis.consistency`` (A is the reference: C per quantity, first step out of band) plus the largest
 relative deviation ``max_k |b_k - a_k| / max_k |a_k|`` on the common steps, and the stepping-time ratio
 B/A (the engines' own loop time; no start-up, no JIT compilation). Outcomes:
 
@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from harness.consistency import compare_runs, run_level
-from harness.rules import SUCCESS_STATES, effective_state
-from harness.testcases import matches
+from harness.analysis.consistency import compare_runs, run_level
+from harness.store.rules import SUCCESS_STATES, effective_state
+from harness.config.testcases import matches
 
 FAILING_OUTCOMES = ("new_failure", "inconsistent")
 
@@ -139,7 +139,7 @@ class RunRow:
             raise AttributeError(name)
         if name == "model":
             # the store's models (Django) load once Django is set up (harness.store)
-            from harness.models import Run
+            from harness.store.models import Run
 
             self.model = Run.objects.get(pk=self.id)
             return self.model
@@ -165,7 +165,7 @@ def run_rows(runs, *extra: str) -> list[RunRow]:
 def attach_series(rows: list[RunRow], chunk: int = 500) -> None:
     """Read the data series and the run.config of ``rows`` in a few queries (``chunk`` runs each)."""
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Run, Series
+    from harness.store.models import Run, Series
 
     by_id = {row.pk: row for row in rows}
     for row in rows:
@@ -238,7 +238,7 @@ def compare_builds(build_a, build_b, machine: str, label_a: str, label_b: str, p
                    ) -> Comparison:
     """Pair and compare the runs of two builds on ``machine`` (``pattern``: ``-k`` selection)."""
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Run
+    from harness.store.models import Run
 
     def runs_of(build):
         found = {}

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.postprocess import is_number
+from harness.execution.postprocess import is_number
 
 PERFECT, GOOD, INCONSISTENT = "perfect", "good", "inconsistent"
 LENGTH_MISMATCH, MISSING = "length_mismatch", "missing"

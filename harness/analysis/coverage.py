@@ -3,7 +3,7 @@
 ``record_selection`` makes the store hold exactly one live row (``replaced`` false) per run configuration a
 target selects now (its test cases at the content of now, filtered by ``-k``), so that every reader of the
 store - ``harness check``, ``harness ci``, the JUnit XML of the CLI and of the dashboard, the overview -
-sees the same set of runs and gives them the same verdicts (``harness.check.verdict_of``):
+sees the same set of runs and gives them the same verdicts (``harness.analysis.check.verdict_of``):
 
 - a broken configuration (invalid run.config, a broken entry) is a row failed with reason ``config``;
 - a run configuration without a row (never run, or run at other test case content) gets a row
@@ -17,7 +17,7 @@ when missing, never overwritten with "not executed", so a process that stores a 
 moment loses nothing.
 
 A target whose revision does not build has that failed build as its current build
-(``harness.builds.failed_build``): its selected run configurations are rows failed with reason
+(``harness.execution.builds.failed_build``): its selected run configurations are rows failed with reason
 ``build_failed`` (``missing`` below; never executed, so no start time), and ``failed_current_builds`` adds
 the build itself to the JUnit XML as the failing test case ``build``.
 """
@@ -25,13 +25,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from harness import execute as ex
+from harness.execution import execute as ex
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
-from harness.builds import BUILD_FAILED
-from harness.planning import build_info, make_spec
-from harness.records import store_record
-from harness.testcases import CONFIG_RUN, discover, matches
+from harness.execution.builds import BUILD_FAILED
+from harness.execution.planning import build_info, make_spec
+from harness.store.records import store_record
+from harness.config.testcases import CONFIG_RUN, discover, matches
 
 
 @dataclass
@@ -52,7 +52,7 @@ def selected(pattern: str | None, path: str, name: str) -> bool:
 
 def selection(target, pattern: str | None = None, working_tree: bool = False, discovered=None):
     """The run configurations ``target`` selects now (None: its test cases cannot be read); ``discovered``:
-    the (test cases, problems) of ``harness.testcases.discover`` when the caller has them already."""
+    the (test cases, problems) of ``harness.config.testcases.discover`` when the caller has them already."""
     if discovered is None:
         try:
             discovered = discover(target, get_adapter(target.engine), working_tree)
@@ -81,7 +81,7 @@ def record_selection(target, build, machine: str, pattern: str | None = None, wo
 
     ``missing``: (failure reason, message) to record the run configurations without a row as failed with,
     instead of not executed - e.g. the runs of a build that failed, which can never execute."""
-    from harness.models import (
+    from harness.store.models import (
         Run,  # the store's models load once Django is set up (harness.store)
     )
 
@@ -134,7 +134,7 @@ def covered_runs(machine_id: int | None = None, target_id: int | None = None, bu
     from django.db.models import Prefetch
 
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import ConsistencyResult, Override, Run
+    from harness.store.models import ConsistencyResult, Override, Run
 
     runs = Run.objects.current(build)
     if machine is not None:
@@ -154,7 +154,7 @@ def earlier_content_run(run):
     """The newest finished run of the same build, test case and run name at other (earlier) test case
     content, when ``run`` is a not-executed row that took its place (None otherwise): the run is stale."""
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Run
+    from harness.store.models import Run
 
     if run.state != "not_executed":
         return None
@@ -165,9 +165,9 @@ def earlier_content_run(run):
 
 def failed_current_builds(machine_id: int | None = None, target_id: int | None = None):
     """The current builds that failed (optionally of one machine and target): the targets whose revision does
-    not build. Both JUnit writers add one failing test case ``build`` for each (``harness.junit``)."""
+    not build. Both JUnit writers add one failing test case ``build`` for each (``harness.report.junit``)."""
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Build
+    from harness.store.models import Build
 
     builds = Build.objects.filter(current=True, status=Build.Status.FAILED).select_related("target", "machine")
     if machine_id is not None:

@@ -4,12 +4,12 @@
 path, run name and test case content hash, e.g. the scenes of ``testcases/crosscode/`` written for the
 bundled engine, LIGGGHTS, LAMMPS and YADE) can be scored each against each: for the ordered pair (code A,
 reference B) and each quantity q the consistency C_q(A | B) after thesis eqs. 4.2-4.4
-(``harness.consistency.compare_runs``, with the run.config's ``consistency`` settings):
+(``harness.analysis.consistency.compare_runs``, with the run.config's ``consistency`` settings):
 
     eps = 0.1 (max_k x_B,k - min_k x_B,k) / 2,   C = 1 - max_k 0.1 |x_A,k - x_B,k| / eps
 
 C is not symmetric (eps comes from the reference), so both orders are given. Runs are the successful ones of
-each target's current build on the machine, which the caller passes (``harness.builds``: the CLI records it
+each target's current build on the machine, which the caller passes (``harness.execution.builds``: the CLI records it
 from the revision, the dashboard reads the recorded one).
 
 The result is a list of ``Cell`` (test case, run, quantity, code, reference, C, level, first step outside
@@ -23,12 +23,12 @@ import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from harness.check import series_of
-from harness.consistency import compare_runs
-from harness.rules import SUCCESS_STATES
-from harness.runrecord import finite
-from harness.testcases import matches
-from harness.textout import format_table
+from harness.analysis.check import series_of
+from harness.analysis.consistency import compare_runs
+from harness.store.rules import SUCCESS_STATES
+from harness.store.runrecord import finite
+from harness.config.testcases import matches
+from harness.report.textout import format_table
 
 #: thermo quantities shown in the matrix (others the codes print under different names are not comparable)
 QUANTITIES = ("ke", "rke", "atoms")
@@ -72,7 +72,7 @@ class Matrix:
 
 def _successful_runs(build, machine: str, pattern: str | None) -> dict:
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Run
+    from harness.store.models import Run
 
     runs = (Run.objects.filter(build=build, machine__name=machine, replaced=False, state__in=SUCCESS_STATES)
             .select_related("testcase", "build").prefetch_related("series"))

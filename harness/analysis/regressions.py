@@ -7,7 +7,7 @@ content), ordered by commit date. Two detectors mark the builds where something 
   outside ``mean +/- k sd`` of the previous ``window`` builds (as CDash flags test times) *and* differs from
   that mean by at least ``min_change`` (relative), so that the noise of a quiet history (sd near 0) or of a
   busy machine does not raise alarms. ``k`` = 3, ``window`` = 5, ``min_change`` = 0.1 by default.
-* **a quantity**: each build's run is compared with the previous build's run by ``harness.compare``; a build
+* **a quantity**: each build's run is compared with the previous build's run by ``harness.analysis.compare``; a build
   whose run is inconsistent with its predecessor (thesis eqs. 4.2-4.4) is marked with the quantities that
   left the band, their C and first bad step; a build where the run newly fails is marked too.
 """
@@ -16,9 +16,9 @@ from __future__ import annotations
 import statistics
 from dataclasses import dataclass, field
 
-from harness.compare import attach_series, compare_pair, run_rows, scored
-from harness.rules import SUCCESS_STATES, effective_state, relative_spread
-from harness.testcases import matches
+from harness.analysis.compare import attach_series, compare_pair, run_rows, scored
+from harness.store.rules import SUCCESS_STATES, effective_state, relative_spread
+from harness.config.testcases import matches
 
 
 @dataclass
@@ -70,7 +70,7 @@ def histories(machine: str, target: str | None = None, pattern: str | None = Non
               window: int = 5, min_change: float = 0.1) -> list[History]:
     """The history of every run configuration (of ``target``, matching ``pattern``) with its changes."""
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Run
+    from harness.store.models import Run
 
     runs = (Run.objects.filter(machine__name=machine, replaced=False).exclude(build__committed_at=None)
             .order_by("target__name", "testcase__path", "name", "testcase_hash", "build__committed_at", "build_id"))
@@ -132,7 +132,7 @@ def build_times(machine: str, target: str | None = None) -> list[BuildTime]:
     failed builds too, which have no runs and so no history above. The time is the recipe's (export,
     configure, compile, link); a build through a warm ccache shows as a drop."""
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Build
+    from harness.store.models import Build
 
     builds = (Build.objects.filter(machine__name=machine).exclude(target__definition__recipe="system")
               .select_related("target").order_by("target__name", "committed_at", "id"))

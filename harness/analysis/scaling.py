@@ -82,7 +82,7 @@ def expand(entry: dict, parallelism: str = "mpi") -> list[dict]:
     """The run configuration entries of a scaling study, one per core count; ``[entry]`` without one.
 
     ``parallelism`` is the code's (``EngineAdapter.parallelism``): ``mpi`` makes each point an mpi run on P
-    ranks, ``threads`` a run on P threads (``scaling_point.threads``, read by ``harness.runner.make_spec``).
+    ranks, ``threads`` a run on P threads (``scaling_point.threads``, read by ``harness.execution.scheduler.make_spec``).
     """
     block = entry.get("scaling")
     if not block:
@@ -184,7 +184,7 @@ def studies_in_store(runs) -> list[Study]:
     ``runs`` is a Run queryset, typically one build's runs on one machine, without replaced runs. A failed
     point has no time and no figures.
     """
-    from harness.rules import SUCCESS_STATES
+    from harness.store.rules import SUCCESS_STATES
 
     groups: dict[tuple[str, str], list] = {}
     rows = (runs.filter(config__has_key="scaling_point").select_related("testcase")
@@ -227,8 +227,8 @@ def history(target_id: int, machine_id: int) -> dict[str, list[dict]]:
     A revision that scales worse shows as a drop of efficiency even when its one-core time holds.
     Three queries whatever the number of builds: the builds, their scaling runs, nothing per build.
     """
-    from harness.models import Build, Run
-    from harness.rules import SUCCESS_STATES
+    from harness.store.models import Build, Run
+    from harness.store.rules import SUCCESS_STATES
 
     builds = {b.pk: b for b in Build.objects.filter(target_id=target_id, machine_id=machine_id)}
     runs = (Run.objects.filter(build_id__in=list(builds), config__has_key="scaling_point", replaced=False)

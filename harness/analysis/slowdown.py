@@ -1,15 +1,15 @@
 """Why B is slower than A: the timing breakdown and, where both runs were profiled, the profile against each other.
 
 Used by ``harness bisect --slower`` (the first slow commit against GOOD) and ``harness compare --profile A B``.
-For each pair of runs the section of the breakdown whose time grew most comes first (``harness.breakdown.diff``),
-then the functions whose share of the profile grew most (``harness.profiles.function_diff``).
+For each pair of runs the section of the breakdown whose time grew most comes first (``harness.analysis.breakdown.diff``),
+then the functions whose share of the profile grew most (``harness.execution.profiles.function_diff``).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from harness import breakdown as bd
-from harness import profiles
+from harness.analysis import breakdown as bd
+from harness.execution import profiles
 
 
 @dataclass
@@ -50,7 +50,7 @@ class Explanation:
 
 
 def explain_pair(pair) -> Explanation:
-    """The explanation of one ``harness.compare.PairComparison`` whose runs both ran."""
+    """The explanation of one ``harness.analysis.compare.PairComparison`` whose runs both ran."""
     a, b = pair.a, pair.b
     sections = bd.diff(a.breakdown or {}, b.breakdown or {}) if (a.breakdown and b.breakdown) else []
     stacks_a, stacks_b = profiles.run_profile(a), profiles.run_profile(b)

@@ -1,9 +1,9 @@
 """Verdicts from what the store holds: the RunVerdict ``harness check`` gives, built from a run's stored
 ConsistencyResult rows instead of a fresh comparison, so that the dashboard (run page, /junit.xml) and the
 CLI cannot disagree - the rules (which states fail, how an override is honoured, how JUnit is written) stay
-in harness.check and harness.rules.
+in harness.analysis.check and harness.store.rules.
 
-The set of runs is ``harness.coverage.covered_runs``: after a ``harness check`` (or ``run``) it holds every
+The set of runs is ``harness.analysis.coverage.covered_runs``: after a ``harness check`` (or ``run``) it holds every
 selected run configuration, broken ones and runs not executed included, and a test case changed on disk is a
 not-executed run of the new content (stale), so the dashboard's JUnit is the CLI's to the byte. What the
 store cannot tell: a test case changed on disk since the last ``harness check`` or ``run``. A post-processed run the check has not scored yet says so in its
@@ -11,7 +11,7 @@ message (``harness check`` scores every such run before it writes its report, so
 """
 from __future__ import annotations
 
-from harness.check import CheckReport, RunVerdict, junit_xml, verdict_of
+from harness.analysis.check import CheckReport, RunVerdict, junit_xml, verdict_of
 
 #: a checkable run the check has not scored yet (its consistency is still blank)
 NOT_CHECKED = "not checked against the reference yet (run 'harness check')"
@@ -41,8 +41,8 @@ def stored_report(runs, allow_missing: bool = False) -> CheckReport:
 
 
 def stored_junit_xml(runs, allow_missing: bool = False, failed_builds=()) -> str:
-    """JUnit XML of ``runs`` (e.g. ``harness.coverage.covered_runs(machine, target)``) and of ``failed_builds`` (e.g.
-    ``harness.coverage.failed_current_builds(machine, target)``) by harness.check's writer;
+    """JUnit XML of ``runs`` (e.g. ``harness.analysis.coverage.covered_runs(machine, target)``) and of ``failed_builds`` (e.g.
+    ``harness.analysis.coverage.failed_current_builds(machine, target)``) by harness.analysis.check's writer;
     ``allow_missing`` as ``harness check --allow-missing``."""
     report = stored_report(runs, allow_missing)
     report.failed_builds = list(failed_builds)

@@ -26,12 +26,12 @@ def run(args) -> int:
         raise UserError("--slower must be a factor above 1 (e.g. 1.2)")
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness import gitrepo
-    from harness.bisect import bisect
-    from harness.compare import rows
-    from harness.links import commit_page
-    from harness.runner import format_table
-    from harness.targets import select_targets
+    from harness.config import gitrepo
+    from harness.analysis.bisect import bisect
+    from harness.analysis.compare import rows
+    from harness.report.links import commit_page
+    from harness.execution.scheduler import format_table
+    from harness.config.targets import select_targets
 
     (target,), _problems = select_targets([args.target], args.targets_dir)
     result = bisect(target, args.good, args.bad, args.machine, args.pattern, args.slower, args.jobs,
@@ -72,9 +72,9 @@ def run(args) -> int:
 
 def print_slowdown(comparison, runs: int = 3) -> None:
     """Why the first slow commit is slower than GOOD: per most slowed-down run its breakdown against GOOD's,
-    and the profile diff where both were profiled (``harness.slowdown``)."""
+    and the profile diff where both were profiled (``harness.analysis.slowdown``)."""
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.slowdown import explain
+    from harness.analysis.slowdown import explain
 
     explanations = explain(comparison, limit=runs)
     if not explanations:

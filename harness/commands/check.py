@@ -47,26 +47,26 @@ def result_and_detail(v) -> tuple[str, str]:
     """The result column and the detail of a verdict: an overruled run names its reviewer and reason
     before what was overruled."""
     if v.overridden:
-        # harness.check words each as "<what> accepted by <reviewer>: <reason>": reviewer and reason first
+        # harness.analysis.check words each as "<what> accepted by <reviewer>: <reason>": reviewer and reason first
         accepted = []
         for text in v.overridden:
             what, _, by = text.partition(" accepted by ")
             accepted.append(f"{by} - overruled {what}" if by else text)
         detail = "; ".join(accepted) + (f"; was: {v.message}" if v.message else "")
         return ("overruled" if v.status == "passed" else v.status), detail
-    # the glossary's word (harness/glossary.py): a skipped run (outdated, or not executed with --allow-missing) is
+    # the glossary's word (harness/report/glossary.py): a skipped run (outdated, or not executed with --allow-missing) is
     # "not run" (JUnit: skipped)
     return ("not run" if v.status == "skipped" else v.status), v.message
 
 
 def run(args) -> int:
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.check import check_targets, write_junit
-    from harness.revisions import expand
-    from harness.runner import format_table
-    from harness.runrecord import finite
-    from harness.targets import with_testcases
-    from harness.textout import ELLIPSIS, width, wrap
+    from harness.analysis.check import check_targets, write_junit
+    from harness.config.revisions import expand
+    from harness.execution.scheduler import format_table
+    from harness.store.runrecord import finite
+    from harness.config.targets import with_testcases
+    from harness.report.textout import ELLIPSIS, width, wrap
 
     setup_store()
     targets, problems = expand(args.targets, args.targets_dir)

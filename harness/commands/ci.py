@@ -27,11 +27,11 @@ def configure(parser):
 def run(args) -> int:
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.check import check_targets, write_junit
+    from harness.analysis.check import check_targets, write_junit
     from harness.commands.run import with_references
-    from harness.links import commit_page
-    from harness.revisions import expand
-    from harness.runner import RunOptions, run_targets
+    from harness.report.links import commit_page
+    from harness.config.revisions import expand
+    from harness.execution.scheduler import RunOptions, run_targets
 
     targets, problems = expand(args.targets, args.targets_dir)
     everything = with_references(targets) if args.targets else targets

@@ -1,7 +1,7 @@
 """``harness compare A B [-k PATTERN] [--json | --markdown] [--no-run]``: two revisions or two targets.
 
 ``A`` and ``B`` are ``TARGET`` or ``TARGET@REV`` (``dem@v1.2 dem@HEAD``, ``dem-reference dem``). Runs that
-are missing are run first (``--no-run``: compare only what the store holds). See ``harness.compare``.
+are missing are run first (``--no-run``: compare only what the store holds). See ``harness.analysis.compare``.
 """
 import json
 import sys
@@ -30,7 +30,7 @@ def configure(parser):
 def side(argument: str, folder):
     """One target definition for ``TARGET`` or ``TARGET@REV`` (a range is refused)."""
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.revisions import expand, split
+    from harness.config.revisions import expand, split
 
     if ".." in (split(argument)[1] or ""):
         raise UserError(f"{argument!r}: compare takes one revision per side, not a range")
@@ -40,10 +40,10 @@ def side(argument: str, folder):
 def run(args) -> int:
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.builds import record_current_build
-    from harness.compare import compare_builds, markdown, rows, summary
-    from harness.runner import RunOptions, format_table, run_targets
-    from harness.runrecord import finite
+    from harness.execution.builds import record_current_build
+    from harness.analysis.compare import compare_builds, markdown, rows, summary
+    from harness.execution.scheduler import RunOptions, format_table, run_targets
+    from harness.store.runrecord import finite
 
     target_a, target_b = side(args.a, args.targets_dir), side(args.b, args.targets_dir)
     if not args.no_run:
@@ -67,7 +67,7 @@ def run(args) -> int:
         data = comparison.as_dict()
         if args.profile:
             # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-            from harness.slowdown import explain
+            from harness.analysis.slowdown import explain
 
             data["profiles"] = [e.as_dict() for e in explain(comparison)]
         print(json.dumps(finite(data), indent=1, allow_nan=False, default=str))
@@ -83,9 +83,9 @@ def run(args) -> int:
 
 def print_profiles(comparison) -> None:
     """Per pair of runs (the most slowed-down first) the breakdown diff and the functions whose share of the
-    profile grew most from A to B (``harness.slowdown``); a run without a profile is said to have none."""
+    profile grew most from A to B (``harness.analysis.slowdown``); a run without a profile is said to have none."""
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.slowdown import explain
+    from harness.analysis.slowdown import explain
 
     for explanation in explain(comparison):
         print()

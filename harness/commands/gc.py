@@ -20,7 +20,7 @@ def run(args) -> int:
         raise UserError("--keep-builds must be at least 0")
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.gc import collect, collect_profiles
+    from harness.execution.gc import collect, collect_profiles
 
     result = collect(args.keep_builds, args.dry_run, None if args.all_machines else args.machine)
     verb = "would remove" if args.dry_run else "removed"

@@ -17,12 +17,12 @@ def configure(parser):
 
 def run(args) -> int:
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.records import import_folder
+    from harness.store.records import import_folder
 
     setup_store()
     if args.as_machine:
         # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-        from harness.workspace import segment_problem
+        from harness.execution.workspace import segment_problem
 
         if segment_problem(args.as_machine):
             raise UserError(f"--as-machine: {segment_problem(args.as_machine)}")

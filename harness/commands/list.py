@@ -25,12 +25,12 @@ def configure(parser):
 def run(args) -> int:
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.builds import record_current_build
-    from harness.models import Run, Target
-    from harness.runner import format_table
-    from harness.runrecord import STATES, finite
-    from harness.targets import load_targets
-    from harness.testcases import matches
+    from harness.execution.builds import record_current_build
+    from harness.store.models import Run, Target
+    from harness.execution.scheduler import format_table
+    from harness.store.runrecord import STATES, finite
+    from harness.config.targets import load_targets
+    from harness.config.testcases import matches
 
     if args.state and args.state not in STATES:
         raise UserError(f"--state: unknown state {args.state!r} (known: {', '.join(STATES)})")
@@ -54,7 +54,7 @@ def run(args) -> int:
             record_current_build(definition, args.machine)
         runs = runs.current()
     matched = [r for r in runs if matches(args.pattern, r.testcase.path, r.name)]
-    # -q: the failing runs (harness.rules.is_failing), as "failing since" and `harness check` count them
+    # -q: the failing runs (harness.store.rules.is_failing), as "failing since" and `harness check` count them
     failing = set(runs.failing().values_list("pk", flat=True)) if args.quiet else set()
     selected = [r for r in matched if not args.quiet or r.pk in failing]
     if args.json:

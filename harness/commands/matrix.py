@@ -1,5 +1,5 @@
 """``harness matrix [TARGET ...] [-k PATTERN] [--csv FILE] [--json FILE] [--min-level LEVEL]``: the cross-code
-consistency matrix (``harness.matrix``): C of every target's run against every other target's run of the same
+consistency matrix (``harness.analysis.matrix``): C of every target's run against every other target's run of the same
 test case content, per quantity (ke, rke, atoms). Default targets: those named ``*-crosscode``.
 
 Writes ``$HARNESS_HOME/matrix/matrix.json`` and ``matrix.csv`` (for the dashboard) besides any ``--csv`` /
@@ -28,10 +28,10 @@ def configure(parser):
 
 def run(args) -> int:
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.builds import record_current_build
-    from harness.matrix import _c, build_matrix, format_matrix, write_csv, write_json
-    from harness.targets import select_targets
-    from harness.workspace import workspace
+    from harness.execution.builds import record_current_build
+    from harness.analysis.matrix import _c, build_matrix, format_matrix, write_csv, write_json
+    from harness.config.targets import select_targets
+    from harness.execution.workspace import workspace
 
     setup_store()
     targets, problems = select_targets(args.targets, args.targets_dir)

@@ -1,4 +1,4 @@
-"""``harness new testcase NAME [--in FOLDER]``: write a working test case to start from (harness.scaffold)."""
+"""``harness new testcase NAME [--in FOLDER]``: write a working test case to start from (harness.config.scaffold)."""
 from pathlib import Path
 
 NAME = "new"
@@ -14,7 +14,7 @@ def configure(parser):
 
 def run(args) -> int:
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.scaffold import new_testcase
+    from harness.config.scaffold import new_testcase
 
     parent = Path(args.parent).expanduser().resolve()
     for path in new_testcase(parent, args.name):

@@ -22,8 +22,8 @@ def configure(parser):
 def run(args) -> int:
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.regressions import build_times, comparable, histories
-    from harness.runner import format_table
+    from harness.analysis.regressions import build_times, comparable, histories
+    from harness.execution.scheduler import format_table
 
     found = histories(args.machine, args.target, args.pattern, args.sigma, args.window, args.min_change)
     changes = [(h, c) for h in found for c in h.changes]

@@ -45,8 +45,8 @@ def configure(parser):
 
 def run(args) -> int:
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.revisions import expand
-    from harness.runner import RunOptions, run_targets, summary_table
+    from harness.config.revisions import expand
+    from harness.execution.scheduler import RunOptions, run_targets, summary_table
 
     setup_store()
     targets, problems = expand(args.targets, args.targets_dir, args.steps)
@@ -54,7 +54,7 @@ def run(args) -> int:
         targets = with_references(targets)
     if args.testcases:
         # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-        from harness.targets import with_testcases
+        from harness.config.targets import with_testcases
 
         if not Path(args.testcases).expanduser().is_dir():
 
@@ -88,7 +88,7 @@ def with_references(targets):
     A check needs the reference's runs; they are cached, so naming only the target under test is enough.
     """
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.targets import reference_of
+    from harness.config.targets import reference_of
 
     chosen = list(targets)
     names = {t.name for t in chosen}

@@ -1,6 +1,6 @@
 """``harness scaling [TARGET ...] [-k PATTERN] [--no-run]``: how the codes scale with cores.
 
-Runs the points of the run configurations that declare a ``scaling`` block (``harness.scaling``) one at a time
+Runs the points of the run configurations that declare a ``scaling`` block (``harness.analysis.scaling``) one at a time
 (a point timed while another runs measures the other's load), then prints per study the stepping time,
 speedup, parallel efficiency, Karp-Flatt serial fraction and load imbalance per core count, and writes them as
 CSV and JSON under ``$HARNESS_HOME/scaling/MACHINE/TARGET/TESTCASE/NAME.{csv,json}``.
@@ -29,12 +29,12 @@ def configure(parser):
 def run(args) -> int:
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness import scaling
-    from harness.revisions import expand
-    from harness.runner import RunOptions, format_table, run_and_read
-    from harness.runrecord import finite
-    from harness.testcases import matches
-    from harness.workspace import workspace
+    from harness.analysis import scaling
+    from harness.config.revisions import expand
+    from harness.execution.scheduler import RunOptions, format_table, run_and_read
+    from harness.store.runrecord import finite
+    from harness.config.testcases import matches
+    from harness.execution.workspace import workspace
 
     targets, problems = expand(args.targets, args.targets_dir)
     for problem in problems:

@@ -14,7 +14,7 @@ import subprocess
 import sys
 
 from harness.adapters.base import UserError
-from harness.workspace import PROJECT_ROOT, workspace
+from harness.execution.workspace import PROJECT_ROOT, workspace
 
 NAME = "serve"
 HELP = "serve the web dashboard over the store (development server, or gunicorn with --production)"
@@ -45,7 +45,7 @@ def environment() -> dict:
 def run(args) -> int:
     env = environment()
     settings = "webfrontend.settings_production" if args.production else "webfrontend.settings"
-    # the servers bring the store's schema up to date as they open it (harness.schema.ensure_schema)
+    # the servers bring the store's schema up to date as they open it (harness.store.schema.ensure_schema)
     prepare = [("collectstatic", "--noinput", "--verbosity", "0")] if args.production else []
     for step in prepare:
         done = subprocess.run(command(args, *step, settings=settings), env=env, capture_output=True, text=True)

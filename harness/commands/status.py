@@ -1,6 +1,6 @@
 """``harness status [TARGET ...] [--json]``: per target, its current build and its runs per state.
 
-The columns are explained in ``--help`` (``COLUMNS``), the states in the glossary's words (harness.glossary).
+The columns are explained in ``--help`` (``COLUMNS``), the states in the glossary's words (harness.report.glossary).
 """
 import argparse
 import json
@@ -10,7 +10,7 @@ from harness.store import setup_store
 NAME = "status"
 HELP = "summary per target: current build (commit) and its runs per state"
 
-#: the table's short column headings for the run states (harness.models.Run.State) and the glossary's word
+#: the table's short column headings for the run states (harness.store.models.Run.State) and the glossary's word
 STATE_COLUMNS = {"not_executed": ("not run", "not executed"), "executed": ("executed", "executed"),
                  "failed": ("failed", "failed"), "post_processed": ("post-proc", "post-processed"),
                  "consistency_checked": ("checked", "version-consistency-checked"),
@@ -22,8 +22,8 @@ def columns_help() -> str:
     import textwrap
 
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.glossary import STATES
-    from harness.textout import DEFAULT_WIDTH
+    from harness.report.glossary import STATES
+    from harness.report.textout import DEFAULT_WIDTH
 
     lines = ["columns:",
              "  target         the target (targets/NAME.json)",
@@ -50,10 +50,10 @@ def run(args) -> int:
     from django.db.models import Count
 
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.builds import current_build, record_current_build
-    from harness.models import Run, Target
-    from harness.runner import format_table
-    from harness.targets import load_targets
+    from harness.execution.builds import current_build, record_current_build
+    from harness.store.models import Run, Target
+    from harness.execution.scheduler import format_table
+    from harness.config.targets import load_targets
 
     definitions, _problems = load_targets(args.targets_dir)
     targets = Target.objects.order_by("name")

@@ -1,7 +1,7 @@
 """``harness sweep [TARGET ...] [-k PATTERN] [-j N] [--no-run]``: what accuracy costs in time.
 
 Runs the sweep points of the targets' run configurations that declare a ``sweep`` block (see
-``harness.sweep``), then writes for each sweep a CSV table and a log-log plot of error against wall time
+``harness.config.sweep``), then writes for each sweep a CSV table and a log-log plot of error against wall time
 and against the swept value, with the observed convergence order, under ``$HARNESS_HOME/sweeps/``.
 """
 import sys
@@ -23,11 +23,11 @@ def configure(parser):
 def run(args) -> int:
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness import sweep as sw
-    from harness.runner import RunOptions, format_table, run_and_read
-    from harness.targets import select_targets
-    from harness.testcases import matches
-    from harness.workspace import workspace
+    from harness.config import sweep as sw
+    from harness.execution.scheduler import RunOptions, format_table, run_and_read
+    from harness.config.targets import select_targets
+    from harness.config.testcases import matches
+    from harness.execution.workspace import workspace
 
     targets, problems = select_targets(args.targets, args.targets_dir)
     for problem in problems:

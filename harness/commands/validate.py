@@ -19,8 +19,8 @@ def configure(parser):
 def run(args) -> int:
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.adapters import get_adapter
-    from harness.targets import load_targets, with_testcases
-    from harness.testcases import discover
+    from harness.config.targets import load_targets, with_testcases
+    from harness.config.testcases import discover
 
     definitions, problems = load_targets(args.targets_dir)
     names = args.targets or sorted(definitions)

@@ -17,7 +17,7 @@ from pathlib import Path
 import git
 
 from harness.adapters.base import UserError
-from harness.workspace import workspace
+from harness.execution.workspace import workspace
 
 
 def is_remote(location: str) -> bool:

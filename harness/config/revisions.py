@@ -11,9 +11,9 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from harness import gitrepo
+from harness.config import gitrepo
 from harness.adapters.base import UserError
-from harness.targets import TargetDefinition, select_targets
+from harness.config.targets import TargetDefinition, select_targets
 
 
 def split(argument: str) -> tuple[str, str | None]:

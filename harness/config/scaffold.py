@@ -12,7 +12,7 @@ import json
 from pathlib import Path
 
 from harness.adapters.base import UserError
-from harness.workspace import segment_problem
+from harness.execution.workspace import segment_problem
 
 SCENE = [
     {"command": "create", "object": "domain", "lo": [-0.05, -0.05, -0.05], "hi": [0.05, 0.05, 0.05]},

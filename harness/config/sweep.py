@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from harness.acceptance import REDUCTIONS, reduce_values
-from harness.rules import SUCCESS_STATES
+from harness.config.acceptance import REDUCTIONS, reduce_values
+from harness.store.rules import SUCCESS_STATES
 
 SEPARATOR = "@"
 
@@ -193,7 +193,7 @@ def plot(table: pd.DataFrame, sweep: dict, title: str, path) -> None:
 
 def _textfile_table(words: list[str]) -> pd.DataFrame | None:
     """A text file stored as words read back as a table: header words, then rows of numbers (else None)."""
-    from harness.postprocess import is_number
+    from harness.execution.postprocess import is_number
 
     width = next((i for i, word in enumerate(words) if is_number(word)), len(words))
     values = words[width:]
@@ -263,7 +263,7 @@ def sweeps_in_store(runs) -> list[SweepResult]:
 
 def current_sweeps() -> list[tuple[object, SweepResult]]:
     """The sweeps of the newest complete build of every target on every machine, as (build, sweep) pairs."""
-    from harness.models import Build, Run
+    from harness.store.models import Build, Run
 
     latest = {}
     for build in (Build.objects.filter(status=Build.Status.COMPLETE, runs__config__has_key="sweep_point")
@@ -276,7 +276,7 @@ def current_sweeps() -> list[tuple[object, SweepResult]]:
 
 
 def find_sweep(build, testcase: str, name: str) -> SweepResult | None:
-    from harness.models import Run
+    from harness.store.models import Run
 
     runs = Run.objects.filter(build=build, testcase__path=testcase)
     return next((r for r in sweeps_in_store(runs) if r.name == name), None)

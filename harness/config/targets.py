@@ -69,7 +69,7 @@ A target is a named build of a DEM code at a git revision. Fields (all optional 
     ``"https://github.com/CFDEMproject/LIGGGHTS-PUBLIC/commit/{commit}"``; the dashboard links commits there.
 
 The target's name is its file name without ``.json``; it names folders in the workspace, so it must be a
-safe single path segment (``harness.workspace.segment_problem``), as must ``reference`` and every part of
+safe single path segment (``harness.execution.workspace.segment_problem``), as must ``reference`` and every part of
 a relative ``testcases`` folder. A target whose reference chain comes back to itself, or leads into such a
 cycle or to a broken or unknown target, is reported (``$.reference``) and left out.
 """
@@ -82,8 +82,8 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
 from harness.adapters.base import UserError
-from harness.jsonfile import Problems, expect_type, json_path, load_json, non_finite_problems
-from harness.workspace import PROJECT_ROOT, segment_problem
+from harness.config.jsonfile import Problems, expect_type, json_path, load_json, non_finite_problems
+from harness.execution.workspace import PROJECT_ROOT, segment_problem
 
 WORKING_TREE = "working-tree"
 RECIPES = ("dem", "make", "cmake", "system")

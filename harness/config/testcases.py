@@ -10,13 +10,13 @@ first; its ``post/`` is copied in), ``post_scripts`` (executables with a shebang
 folder), ``data`` (``series``, ``plots``, ``textfiles``, thesis listing 4.11), ``timeout`` (s, default
 600), ``thermo_columns`` (mapping onto step, atoms, ke, rke), ``consistency`` (per quantity ``epsilon``
 and/or ``floor``, same units as the quantity), ``vtk`` (``{"density": kg/m^3}`` for the kinetic energy
-of dumps), and the acceptance keys ``expectations`` / ``stability`` (checked by ``harness.acceptance``).
+of dumps), and the acceptance keys ``expectations`` / ``stability`` (checked by ``harness.config.acceptance``).
 
 A folder without run.config may still be a test case if the adapter supplies a default configuration
 (``EngineAdapter.default_run_config``, e.g. one serial run per LIGGGHTS ``in.*`` script).
 
 Names become folders of the workspace, so run names and test case folder names must be safe single path
-segments (``harness.workspace.segment_problem``); folders with a reserved name (post, restart, meshes,
+segments (``harness.execution.workspace.segment_problem``); folders with a reserved name (post, restart, meshes,
 scripts, __pycache__) are parts of a test case and never test cases themselves (a run.config in one is
 reported, not silently ignored). Validation never raises for a broken entry: it carries its problems, each
 ``FILE: $.runs[i].field: what is wrong``, and is recorded as failed (reason config) while the rest runs.
@@ -32,11 +32,11 @@ import shlex
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
-from harness import gitrepo
+from harness.config import gitrepo
 from harness.adapters.base import UserError
-from harness.jsonfile import Problems, expect_type, has_non_finite, json_path, load_json, non_finite_problems
-from harness.targets import WORKING_TREE, TargetDefinition
-from harness.workspace import RESERVED_NAMES, segment_problem, workspace
+from harness.config.jsonfile import Problems, expect_type, has_non_finite, json_path, load_json, non_finite_problems
+from harness.config.targets import WORKING_TREE, TargetDefinition
+from harness.execution.workspace import RESERVED_NAMES, segment_problem, workspace
 
 RUN_CONFIG = "run.config"
 RUN_TYPES = ("serial", "mpi", "mpi/custom")
@@ -91,7 +91,7 @@ class TestCaseSpec:
     def content_hash(self, name: str) -> str:
         """sha256 (hex) of run ``name`` as it runs: its run.config entry (variables included), the bytes of
         every file copied into its run folder, and the content hash of the run it depends on (whose
-        ``post/`` it receives). A change to any of them makes it another run (harness.runner)."""
+        ``post/`` it receives). A change to any of them makes it another run (harness.execution.scheduler)."""
         if name not in self._hashes:
             entry = self.run(name)
             digest = hashlib.sha256()
@@ -211,8 +211,8 @@ def _validate_data(problems: Problems, data, where: list) -> None:
 
 
 def _where_in_entry(at: list, message: str) -> tuple[str, str]:
-    """``"expectations[1].at: must be ..."`` (a path inside the entry, from harness.acceptance and
-    harness.sweep) -> (``$.runs[i].expectations[1].at``, ``must be ...``)."""
+    """``"expectations[1].at: must be ..."`` (a path inside the entry, from harness.config.acceptance and
+    harness.config.sweep) -> (``$.runs[i].expectations[1].at``, ``must be ...``)."""
     inner, sep, what = message.partition(": ")
     if not sep or " " in inner:
         return json_path(*at), message
@@ -263,7 +263,7 @@ def _validate_entry(problems: Problems, entry: dict, i: int, folder: Path, adapt
                 expect_type(problems, json_path(*at, "mpi_options", j), option, str, "a string")
         elif expect_type(problems, json_path(*at, "mpi_options"), options, str, "a string or a list of strings"):
             try:
-                shlex.split(options)  # what the launcher command line is made of (harness.runner.mpi_prefix)
+                shlex.split(options)  # what the launcher command line is made of (harness.execution.scheduler.mpi_prefix)
             except ValueError as exc:
                 problems.add(json_path(*at, "mpi_options"), f"cannot be split into arguments ({exc})")
     for key in ("variables", "thermo_columns", "consistency", "vtk"):
@@ -310,9 +310,11 @@ def _validate_entry(problems: Problems, entry: dict, i: int, folder: Path, adapt
                 problems.add(json_path(*at, "post_scripts", j), f"post script {script!r} not found in {folder}")
     if "data" in entry:
         _validate_data(problems, entry["data"], [*at, "data"])
-    # harness.acceptance and harness.sweep name paths inside the entry; a NaN there is reported already
+    # harness.config.acceptance and harness.config.sweep name paths inside the entry; a NaN there is reported already
     already = {message[len(f"{problems.path}: "):].partition(": ")[0] for message in problems.messages}
-    from harness import acceptance, profiles, scaling, sweep
+    from harness.config import acceptance, sweep
+    from harness.execution import profiles
+    from harness.analysis import scaling
 
     inner = (acceptance.validate(entry) if "expectations" in entry or "stability" in entry else []) \
         + sweep.validate(entry) + scaling.validate(entry) \
@@ -438,9 +440,10 @@ def parse_run_config(data, path: Path, adapter_name: str) -> tuple[list[RunEntry
     if not expect_type(file_problems, json_path("runs"), runs, list, "a list of run configurations"):
         non_finite_problems(file_problems, runs, "runs")
         return _with_config_run([], file_problems.messages), file_problems.messages
-    # a valid sweep block becomes one ordinary run per value (harness.sweep); an invalid one stays to be
+    # a valid sweep block becomes one ordinary run per value (harness.config.sweep); an invalid one stays to be
     # reported as one entry. Each item keeps the index of its entry in the file and the entry's NaN problems.
-    from harness import scaling, sweep
+    from harness.analysis import scaling
+    from harness.config import sweep
 
     parallelism = _parallelism(adapter_name)
     items: list[tuple[int, object, list[str]]] = []

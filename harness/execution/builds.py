@@ -23,11 +23,11 @@ from pathlib import Path
 import git
 from filelock import Timeout
 
-from harness import gitrepo
+from harness.config import gitrepo
 from harness.adapters.base import UserError
-from harness.rules import restored_state
-from harness.targets import TargetDefinition
-from harness.workspace import workspace
+from harness.store.rules import restored_state
+from harness.config.targets import TargetDefinition
+from harness.execution.workspace import workspace
 
 DONE_MARKER = "done"
 #: failure reason of the runs of a target whose build failed (they are not executed)
@@ -44,7 +44,7 @@ def _now():
 
 def ensure_machine(name: str):
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Machine
+    from harness.store.models import Machine
 
     return Machine.objects.get_or_create(name=name)[0]
 
@@ -52,7 +52,7 @@ def ensure_machine(name: str):
 def ensure_target(target: TargetDefinition):
     """The store's row for a target definition (created or updated), linked to its reference's row."""
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Target
+    from harness.store.models import Target
 
     row, _ = Target.objects.get_or_create(name=target.name)
     row.definition = target.as_dict()
@@ -92,13 +92,13 @@ def make_current(build) -> None:
 
     The runs of every other build of that target and machine become outdated; runs of this build that an
     earlier switch made outdated come back (a revision built again is current again, its results valid),
-    except those a newer run of the same test case content replaced (``harness.records.store_record``).
+    except those a newer run of the same test case content replaced (``harness.store.records.store_record``).
     """
     # the store's models (Django) load once Django is set up (harness.store)
     from django.db import transaction
 
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Build, Run
+    from harness.store.models import Build, Run
 
     with transaction.atomic():
         siblings = Build.objects.filter(target_id=build.target_id, machine_id=build.machine_id)
@@ -116,7 +116,7 @@ def make_current(build) -> None:
 def find_build(target: TargetDefinition, machine_name: str, info: dict | None = None):
     """The complete build of the commit ``target``'s revision resolves to now, or None."""
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Build
+    from harness.store.models import Build
 
     info = info or resolve_commit(target)
     return Build.objects.filter(target__name=target.name, machine__name=machine_name, commit=info["commit"],
@@ -126,10 +126,10 @@ def find_build(target: TargetDefinition, machine_name: str, info: dict | None = 
 def failed_build(target: TargetDefinition, machine_name: str):
     """The stored failed build (not an interrupted one) of the commit ``target``'s revision resolves to now,
     or None; it becomes current unless the revision was given on the command line (``TARGET@REV``). Its runs
-    are recorded failed with reason ``BUILD_FAILED`` (``harness.coverage.record_build_failure``) and JUnit shows it as the
-    failing test case ``build`` (``harness.junit.build_failure_suite``)."""
+    are recorded failed with reason ``BUILD_FAILED`` (``harness.analysis.coverage.record_build_failure``) and JUnit shows it as the
+    failing test case ``build`` (``harness.report.junit.build_failure_suite``)."""
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Build
+    from harness.store.models import Build
 
     info = resolve_commit(target)
     build = Build.objects.filter(target__name=target.name, machine__name=machine_name, commit=info["commit"],
@@ -145,7 +145,7 @@ def current_build(target_name: str, machine_name: str):
     """The recorded current build of a target on a machine (complete), or None. Reads the store only: no
     git command, nothing written - the dashboard and every reader of the store ask this."""
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Build
+    from harness.store.models import Build
 
     return Build.objects.filter(target__name=target_name, machine__name=machine_name, current=True,
                                 status=Build.Status.COMPLETE).first()
@@ -178,7 +178,7 @@ def build_target(target: TargetDefinition, machine_name: str, force: bool = Fals
     attempt was interrupted). A failed build of the revision becomes current as a complete one does.
     """
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Build, Run
+    from harness.store.models import Build, Run
 
     say = log or (lambda text: None)
     check_requirements(target)
@@ -282,7 +282,7 @@ def first_error_line(log: str) -> str | None:
 
 def _run_recipe(target: TargetDefinition, build, info: dict, folder: Path, say, jobs: int | None) -> None:
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Build
+    from harness.store.models import Build
 
     say(f"building {target.name} at {info['commit'][:12]} ({target.recipe})")
     workspace().fresh_folder(folder)

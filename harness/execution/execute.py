@@ -20,9 +20,9 @@ from pathlib import Path
 
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
-from harness import runrecord
-from harness.runrecord import RunRecord
-from harness.workspace import PROJECT_ROOT, Workspace
+from harness.store import runrecord
+from harness.store.runrecord import RunRecord
+from harness.execution.workspace import PROJECT_ROOT, Workspace
 
 RECORD_FILE = runrecord.RECORD_FILE
 STDOUT, STDERR, POST_LOG = "stdout.txt", "stderr.txt", "post_scripts.log"
@@ -131,7 +131,7 @@ def signal_name(number: int) -> str:
 
 
 def prepare_folder(spec: dict) -> Path:
-    """A fresh run folder holding the test case's files (``harness.testcases.testcase_files``, the files its
+    """A fresh run folder holding the test case's files (``harness.config.testcases.testcase_files``, the files its
     content hash covers) and the dependency's ``post/``. Only a folder inside the workspace is replaced."""
     folder = Path(spec["folder"])
     Workspace.at(spec["workspace"]).fresh_folder(folder)
@@ -153,7 +153,7 @@ def prepare_folder(spec: dict) -> Path:
 
 
 def base_record(spec: dict) -> dict:
-    """A fresh record of the run ``spec`` describes, in the layout ``harness.runrecord.RunRecord`` declares."""
+    """A fresh record of the run ``spec`` describes, in the layout ``harness.store.runrecord.RunRecord`` declares."""
     return RunRecord.from_spec(spec).to_dict()
 
 
@@ -228,7 +228,7 @@ def _run_post_scripts(spec: dict, folder: Path, record: dict) -> bool:
     """
     env = dict(os.environ)
     env.update(spec.get("environment") or {})
-    # post scripts may use the harness' own readers (harness.postprocess ...) whatever the build's environment
+    # post scripts may use the harness' own readers (harness.execution.postprocess ...) whatever the build's environment
     # puts on PYTHONPATH (the bundled engine's build sets it to its exported source)
     env["PYTHONPATH"] = os.pathsep.join(p for p in (env.get("PYTHONPATH"), str(PROJECT_ROOT)) if p)
     timeout = float(spec.get("timeout") or 600)
@@ -364,7 +364,7 @@ def execute(spec: dict) -> dict:
     except UserError:
         record["breakdown"] = {}
     if spec.get("profile"):
-        from harness import profiles
+        from harness.execution import profiles
 
         profiles.finish(spec, folder, record)
     _classify(record, code, timed_out, scan, float(spec.get("timeout") or 600))
@@ -405,7 +405,7 @@ def _repeat(spec: dict, folder: Path, record: dict, adapter) -> None:
 
 def postprocess_run(spec: dict, folder: Path, record: dict, adapter) -> None:
     """Thermo (kept even for failed runs), then for successful runs post scripts, data, VTK, acceptance."""
-    from harness.postprocess import frame_to_series, non_finite_columns, read_declared, vtk_aggregates
+    from harness.execution.postprocess import frame_to_series, non_finite_columns, read_declared, vtk_aggregates
 
     config = spec["config"]
     mapping = spec.get("thermo_columns") or None
@@ -440,16 +440,16 @@ def postprocess_run(spec: dict, folder: Path, record: dict, adapter) -> None:
     record["series"].extend(stored)
     frames["thermo"] = thermo
     overlaps = adapter.largest_overlaps(folder)
-    if overlaps:  # the engine's own report, for the default blow-up check (harness.acceptance)
+    if overlaps:  # the engine's own report, for the default blow-up check (harness.config.acceptance)
         import pandas as pd
 
         frames.setdefault("engine_log", pd.DataFrame({"block": range(1, len(overlaps) + 1),
                                                       "max_overlap": overlaps}))
     try:
-        from harness import acceptance
+        from harness.config import acceptance
     except ImportError:
         acceptance = None
-    if acceptance is not None:  # the default stability checks apply to every run (harness.acceptance)
+    if acceptance is not None:  # the default stability checks apply to every run (harness.config.acceptance)
         verdicts = acceptance.evaluate(config, frames, folder)
         record["verdicts"] = [{"ok": bool(v.ok), "reason": v.reason, "message": v.message} for v in verdicts]
         bad = [v for v in verdicts if not v.ok]

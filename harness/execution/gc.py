@@ -9,7 +9,7 @@ Everything removed goes through ``Workspace.remove_tree``, which refuses paths o
 
 Nothing another process holds is removed: a build whose use lock (``Workspace.use_lock``, held shared by
 every ``harness run`` using the build, from planning until its runs are stored) or build lock is held, and a
-run folder whose run lock (``harness.runner``) is held, are skipped and reported. gc holds the locks it took
+run folder whose run lock (``harness.execution.scheduler``) is held, are skipped and reported. gc holds the locks it took
 while it removes, so no run of that build can start meanwhile.
 """
 from __future__ import annotations
@@ -20,8 +20,8 @@ from pathlib import Path
 
 from filelock import Timeout
 
-from harness.profiles import PERF_DATA
-from harness.workspace import workspace
+from harness.execution.profiles import PERF_DATA
+from harness.execution.workspace import workspace
 
 
 @dataclass
@@ -56,7 +56,7 @@ def collect(keep_builds: int = 2, dry_run: bool = False, machine: str | None = N
     from django.db.models import Q
 
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Build, Run
+    from harness.store.models import Build, Run
 
     ws = workspace()
     out = Collection()
@@ -116,7 +116,7 @@ def collect(keep_builds: int = 2, dry_run: bool = False, machine: str | None = N
 
 
 def _run_lock(ws, folder: str):
-    """The lock ``harness run`` holds on a run folder while it runs it (``harness.runner._run_lock``)."""
+    """The lock ``harness run`` holds on a run folder while it runs it (``harness.execution.scheduler._run_lock``)."""
 
     return ws.lock(f"run-{hashlib.sha1(folder.encode()).hexdigest()[:20]}", timeout=0)
 
@@ -140,14 +140,14 @@ def _remove(path: Path, bucket: list, out: Collection, ws, dry_run: bool) -> Non
 
 
 def collect_profiles(dry_run: bool = False, machine: str | None = None) -> Collection:
-    """Remove (or list) the raw samples (``perf.data``, ``harness.profiles``) of profiled runs that are not of
+    """Remove (or list) the raw samples (``perf.data``, ``harness.execution.profiles``) of profiled runs that are not of
     a current build; their folded stacks (``profile.folded``, small) stay as long as the run folder does.
 
     Raw samples are what ``perf report`` needs and can be hundreds of MB; only the current build's are kept.
     Returned in ``run_folders``: the perf.data files removed.
     """
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Run
+    from harness.store.models import Run
 
     ws = workspace()
     out = Collection()

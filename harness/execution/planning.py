@@ -1,6 +1,6 @@
 """The run spec of one run configuration: everything a worker needs to execute it, as a plain dict
 (picklable, so Dask workers get it) - its command line with the MPI launcher prefix, its run folder, its
-environment and the build it runs. ``harness run`` plans with it (``harness.runner``), ``harness.coverage``
+environment and the build it runs. ``harness run`` plans with it (``harness.execution.scheduler``), ``harness.analysis.coverage``
 records the run configurations not executed with it.
 """
 from __future__ import annotations
@@ -9,11 +9,11 @@ import json
 import shlex
 from pathlib import Path
 
-from harness import scaling
+from harness.analysis import scaling
 from harness.adapters.base import with_open_mpi_flags
-from harness.targets import TargetDefinition
-from harness.testcases import RunEntry, TestCaseSpec
-from harness.workspace import workspace
+from harness.config.targets import TargetDefinition
+from harness.config.testcases import RunEntry, TestCaseSpec
+from harness.execution.workspace import workspace
 
 
 def mpi_prefix(target: TargetDefinition, config: dict) -> list[str] | None:

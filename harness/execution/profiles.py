@@ -12,7 +12,7 @@ line per distinct stack, root first, with its sample count::
 For the bundled engine (a Python program whose native stacks show the interpreter, not the physics) the
 profile is its own phase timers (``engine/runner.py``): ``run;pair``, ``run;neighbor``, ... weighted in
 microseconds. Either way the run folder keeps ``profile.folded`` (``Run.profile``); the raw ``perf.data`` is
-kept beside it for ``perf report`` until ``harness gc`` collects it (``harness.gc.collect_profiles``).
+kept beside it for ``perf report`` until ``harness gc`` collects it (``harness.execution.gc.collect_profiles``).
 
 Comparing two profiles (:func:`function_diff`) ranks functions by the growth of their *inclusive share*: the
 fraction of samples whose stack contains the function. A function that got slower grows its own share and
@@ -27,7 +27,7 @@ import subprocess
 from collections import Counter
 from pathlib import Path
 
-from harness.breakdown import section_seconds
+from harness.analysis.breakdown import section_seconds
 
 FOLDED_FILE = "profile.folded"
 PERF_DATA = "perf.data"
@@ -89,7 +89,7 @@ def perf_command(command: list[str], options: dict | None = None, output: str = 
 
 
 def enable(spec: dict, adapter, value) -> None:
-    """Make the run ``spec`` (``harness.runner.make_spec``) a profiled run: its command under perf for a native
+    """Make the run ``spec`` (``harness.execution.scheduler.make_spec``) a profiled run: its command under perf for a native
     code, its phase timers for the bundled engine (``EngineAdapter.profiler``)."""
     options = settings(value if value not in (None, False) else True)
     spec["profile"] = {"profiler": adapter.profiler, **options}

@@ -22,19 +22,19 @@ from pathlib import Path
 
 from filelock import Timeout
 
-from harness import execute as ex
-from harness import profiles
+from harness.execution import execute as ex
+from harness.execution import profiles
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
-from harness.builds import DONE_MARKER, BuildError, build_target, failed_build
-from harness.coverage import record_build_failure, record_selection, selected
-from harness.planning import build_info, make_spec
-from harness.records import store_record
-from harness.rules import SUCCESS_STATES, effective_state
-from harness.targets import TargetDefinition
-from harness.testcases import RunEntry, TestCaseSpec, discover
-from harness.textout import format_table  # noqa: F401  (the commands import it from here)
-from harness.workspace import workspace
+from harness.execution.builds import DONE_MARKER, BuildError, build_target, failed_build
+from harness.analysis.coverage import record_build_failure, record_selection, selected
+from harness.execution.planning import build_info, make_spec
+from harness.store.records import store_record
+from harness.store.rules import SUCCESS_STATES, effective_state
+from harness.config.targets import TargetDefinition
+from harness.config.testcases import RunEntry, TestCaseSpec, discover
+from harness.report.textout import format_table  # noqa: F401  (the commands import it from here)
+from harness.execution.workspace import workspace
 
 
 @dataclass
@@ -49,7 +49,7 @@ class RunOptions:
     force_build: bool = False
     #: executions of each run whose stepping times are kept (``harness run --repeat N``)
     repeat: int = 1
-    profile: bool = False              # record a profile of every run (harness.profiles)
+    profile: bool = False              # record a profile of every run (harness.execution.profiles)
 
 
 @dataclass
@@ -108,7 +108,7 @@ def _build_in_use(target: TargetDefinition, options: RunOptions, report: RunRepo
 def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport, say) -> list[Task]:
     """Build the target, discover its test cases and choose the runs to execute."""
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Run
+    from harness.store.models import Run
 
 
     try:
@@ -122,7 +122,7 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
     adapter = get_adapter(target.engine)
     testcases, problems = discover(target, adapter, options.working_tree)
     # every selected run configuration is in the store before any runs: one killed before it started is
-    # still there, not executed (harness.coverage)
+    # still there, not executed (harness.analysis.coverage)
     record_selection(target, build, options.machine, options.pattern, options.working_tree,
                      discovered=(testcases, problems))
     report.problems.extend(problems)
@@ -263,7 +263,7 @@ def _claim(task: Task, options: RunOptions, waiting: set, out) -> str:
     (another process finished it while this one waited, and it need not run again)."""
 
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Run
+    from harness.store.models import Run
 
     try:
         _run_lock(task).acquire(timeout=0)
@@ -416,7 +416,7 @@ class _Execution:
 
     def done_elsewhere(self, task: Task) -> None:
         """A run another process finished meanwhile: its stored result stands for it (not run again)."""
-        from harness.models import (
+        from harness.store.models import (
             Run,  # the store's models load once Django is set up (harness.store)
         )
 
@@ -506,10 +506,10 @@ def run_and_read(targets: list[TargetDefinition], options: RunOptions, run: bool
     each target's current build on the machine, for the commands that tabulate studies over run points
     (``harness scaling``, ``harness sweep``). Returns (runs that failed, [(target, build, runs)]), a target
     whose revision is not built here left out."""
-    from harness.builds import record_current_build
+    from harness.execution.builds import record_current_build
 
     # the store's models (Django) load once Django is set up (harness.store)
-    from harness.models import Run
+    from harness.store.models import Run
 
     failed = len(run_targets(targets, options).failed) if run else 0
     found = []

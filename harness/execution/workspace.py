@@ -21,7 +21,7 @@ from filelock import FileLock
 
 from harness.adapters.base import UserError
 
-PROJECT_ROOT = Path(__file__).resolve().parent.parent
+PROJECT_ROOT = Path(__file__).resolve().parents[2]
 
 #: characters a target, test case folder or run name may hold: one path segment, printable, no separators
 _SEGMENT = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.,:=@+\-]*$")

@@ -6,7 +6,7 @@ consistency levels (how close it came to its reference run) and the words around
 """
 from __future__ import annotations
 
-#: run states (harness.models.Run.State), in the order a run goes through them (thesis 4.5)
+#: run states (harness.store.models.Run.State), in the order a run goes through them (thesis 4.5)
 STATES = {
     "not executed": "The run is known (its run configuration was found) but has not been executed yet.",
     "executed": "The engine ran and exited; its output is not post-processed yet.",
@@ -21,7 +21,7 @@ STATES = {
                 "of the current code until it is run again.",
 }
 
-#: verdicts (harness.check.RunVerdict.status): what `harness check`, JUnit and the dashboard say of a run
+#: verdicts (harness.analysis.check.RunVerdict.status): what `harness check`, JUnit and the dashboard say of a run
 VERDICTS = {
     "passed": "The run completed and is consistent with its reference run (or has no reference target), or a "
               "reviewer overruled its failure.",
@@ -31,7 +31,7 @@ VERDICTS = {
                "the current build (JUnit: skipped).",
 }
 
-#: consistency levels (harness.consistency), per quantity and, the worst of them, per run
+#: consistency levels (harness.analysis.consistency), per quantity and, the worst of them, per run
 LEVELS = {
     "perfect": "Every value stays within 5 % of the band around the reference: C >= 0.95.",
     "good": "Every value stays within 10 % of the band: 0.9 <= C < 0.95.",

@@ -70,7 +70,7 @@ def _case(verdict) -> ET.Element:
 
 
 def junit_xml(verdicts, failed_builds=()) -> str:
-    """The XML text for ``verdicts`` (``harness.check.RunVerdict``: run, status, message, kind, ...), then a
+    """The XML text for ``verdicts`` (``harness.analysis.check.RunVerdict``: run, status, message, kind, ...), then a
     ``build_failure_suite`` per failed build of ``failed_builds`` (the targets' current builds that failed),
     ordered by target and machine so that every caller writes the same bytes."""
     suites: dict[tuple[str, str], list] = {}
@@ -114,7 +114,7 @@ def junit_xml(verdicts, failed_builds=()) -> str:
 
 def build_failure_suite(build) -> ET.Element:
     """A ``<testsuite>`` ``TARGET/build`` with the one failing test case ``build`` of a failed build
-    (``harness.builds``): the target's runs cannot execute, so CI sees the build as the failure, with the
+    (``harness.execution.builds``): the target's runs cannot execute, so CI sees the build as the failure, with the
     first error line as the message and the log tail as output. Append it to ``junit_xml``'s root for
     every target whose current build failed."""
     details = build.details or {}

@@ -7,7 +7,7 @@ Artifacts stay on disk in the run folder; the store keeps what lists, plots and 
 from django.conf import settings
 from django.db import models
 
-from harness.queries import BuildQuerySet, RunQuerySet
+from harness.store.queries import BuildQuerySet, RunQuerySet
 
 
 class Machine(models.Model):
@@ -58,7 +58,7 @@ class Build(models.Model):
     finished = models.DateTimeField(null=True, blank=True)
     current = models.BooleanField(default=False, db_index=True,
                                   help_text="the build of the commit the target's revision resolved to when "
-                                            "last asked (one per target and machine; harness.builds)")
+                                            "last asked (one per target and machine; harness.execution.builds)")
     objects = BuildQuerySet.as_manager()
 
     details = models.JSONField(default=dict, blank=True,
@@ -156,10 +156,10 @@ class Run(models.Model):
     breakdown = models.JSONField(default=dict, blank=True,
                                  help_text="the timing breakdown in the harness' sections, s with min/avg/max over "
                                            "ranks where the code prints them, ranks and load imbalance "
-                                           "(harness.breakdown)")
+                                           "(harness.analysis.breakdown)")
     profile = models.CharField(max_length=200, blank=True, default="",
                                help_text="the run's sampling profile as folded stacks, a file in its run folder "
-                                         "(harness.profiles); blank: not profiled")
+                                         "(harness.execution.profiles); blank: not profiled")
     warning_count = models.IntegerField(default=0)
     consistency = models.CharField(max_length=16, choices=Consistency.choices, blank=True, default="")
     consistency_min = models.FloatField(null=True, blank=True, help_text="lowest C over all quantities")

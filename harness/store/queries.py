@@ -30,7 +30,7 @@ from django.db.models import (
 )
 from django.db.models.functions import Concat
 
-from harness.rules import (
+from harness.store.rules import (
     CONSISTENT_LEVELS,
     OVERRIDE_SEPARATORS,
     SUCCESS_STATES,
@@ -43,20 +43,20 @@ from harness.rules import (
 
 
 def _model(name: str):
-    """A model of the store by name: harness.models imports this module for its QuerySets, so this module
+    """A model of the store by name: harness.store.models imports this module for its QuerySets, so this module
     looks the models up in Django's app registry instead of importing them (no import circle)."""
     return apps.get_model("harness", name)
 
 #: outcome categories of the two overview modes, in display order
 STATE_CATEGORIES = ("successful", "failed", "not_executed", "outdated")
 CONSISTENCY_CATEGORIES = ("consistent", "inconsistent", "not_checked")
-#: what ``harness check`` says of a run (harness.check.gate_status): passed, failed, or not run (skipped)
+#: what ``harness check`` says of a run (harness.analysis.check.gate_status): passed, failed, or not run (skipped)
 VERDICT_CATEGORIES = ("passed", "failed", "not_run")
 
 
 def verdict_category(state: str, consistency: str, accepted: bool) -> str:
     """The verdict category of a run from the columns an aggregation keeps (``accepted``: a reviewer
-    overruled it, ``accepted_expression``), by the gate's one rule ``harness.rules.gate_status``."""
+    overruled it, ``accepted_expression``), by the gate's one rule ``harness.store.rules.gate_status``."""
     status = gate_status(state, failure_accepted=accepted,
                          open_inconsistency=consistency == "inconsistent" and not accepted)
     return "not_run" if status == "skipped" else status
@@ -81,15 +81,15 @@ def consistency_category(consistency: str, accepted: bool) -> str:
 
 
 def accepted_expression():
-    """SQL expression of ``harness.rules.is_accepted``: a failed run was overruled as a whole; an inconsistent
+    """SQL expression of ``harness.store.rules.is_accepted``: a failed run was overruled as a whole; an inconsistent
     run as a whole, or every bad quantity has its own override.
 
     A bad quantity is a ConsistencyResult whose level is neither perfect nor good (inconsistent, length
-    mismatch, missing: ``harness.rules.quantity_fails``).
+    mismatch, missing: ``harness.store.rules.quantity_fails``).
     """
     ConsistencyResult, Override = _model("ConsistencyResult"), _model("Override")
     whole_run = Exists(Override.objects.filter(run=OuterRef("pk"), quantity=WHOLE_RUN))
-    # the keys `harness check` honours (harness.rules.override_keys): "ke", "torqueZ:torque", "torqueZ.torque"
+    # the keys `harness check` honours (harness.store.rules.override_keys): "ke", "torqueZ:torque", "torqueZ.torque"
     named = Q(quantity=OuterRef("quantity"))
     for separator in OVERRIDE_SEPARATORS:
         named |= Q(quantity=Concat(OuterRef("series_name"), Value(separator), OuterRef("quantity")))
@@ -239,7 +239,7 @@ def stepping_changes(builds) -> dict:
     The runs of both builds are paired by test case and run name (the shortest stepping time of each, in s);
     the change is the geometric mean of the ratios now / before over the pairs, so that a 5 ms test counts
     as much as a 5 s one; ``noise`` is the median over the pairs of the larger measured spread of repeated
-    stepping times (harness.rules.relative_spread, ``harness run --repeat``; 0 without repeats).
+    stepping times (harness.store.rules.relative_spread, ``harness run --repeat``; 0 without repeats).
     Returns ``{build id: {"ratio", "pairs", "previous" (Build), "noise"}}`` for the builds with at least one
     pair. Two queries.
     """
@@ -287,18 +287,18 @@ class RunQuerySet(models.QuerySet):
         return self.annotate(accepted=accepted_expression())
 
     def accepted(self):
-        """The runs a reviewer overruled (``harness.rules.is_accepted``)."""
+        """The runs a reviewer overruled (``harness.store.rules.is_accepted``)."""
         return self.with_accepted().filter(accepted=True)
 
     def failing(self):
-        """The failing runs (``harness.rules.is_failing``): failed for their own build or inconsistent, and not
+        """The failing runs (``harness.store.rules.is_failing``): failed for their own build or inconsistent, and not
         accepted by a reviewer. ``harness list -q`` lists them."""
         failed = Q(state="failed") | (Q(state="outdated", replaced=False) & ~Q(failure_reason=""))
         return self.with_accepted().filter(failed | Q(consistency="inconsistent"), accepted=False)
 
     def current(self, build=None):
         """The runs a verdict covers: the live rows (not replaced by a newer run of other content) of each
-        target's current build, or of ``build``. ``harness.coverage`` keeps these rows exactly the selected
+        target's current build, or of ``build``. ``harness.analysis.coverage`` keeps these rows exactly the selected
         run configurations; ``harness check``, ``ci``, ``list``, both JUnit writers and the dashboard's
         overview and lists read them."""
         runs = self.filter(replaced=False)
@@ -447,7 +447,7 @@ class RunQuerySet(models.QuerySet):
         return self.detail().filter(pk=found.pk).first() if found is not None else None
 
     def matrix_runs(self, target_names, machine_name: str) -> dict:
-        """Ids of the runs harness.matrix scores: the successful, not replaced runs of each target's current
+        """Ids of the runs harness.analysis.matrix scores: the successful, not replaced runs of each target's current
         build on the machine, as ``{(target, test case path, run name, content hash): run id}`` (one query,
         no series)."""
         rows = (self.filter(target__name__in=list(target_names), machine__name=machine_name, build__current=True,
@@ -461,7 +461,7 @@ class RunQuerySet(models.QuerySet):
 
         The history is that of ``history``: the builds of the target on the machine that ran the run
         configuration, by commit date; per build its run (the one no newer content replaced, else the newest).
-        A run counts as bad when it is failing (``harness.rules.is_failing``: failed for its own build or
+        A run counts as bad when it is failing (``harness.store.rules.is_failing``: failed for its own build or
         inconsistent, not overruled by a reviewer); a successful, consistent (or overruled) run interrupts; a run not executed is
         no evidence either way and is passed over. Returns ``{run id: {"commit", "committed_at", "build_id",
         "run_id", "builds" (bad builds in the streak), "first" (the streak starts at the first recorded

@@ -3,7 +3,7 @@
 ``store_record`` writes a record (from ``execute`` or read back from ``run.json``) into the store;
 ``import_folder`` finds every ``run.json`` below a folder, so runs made on another machine (and copied
 over) join the store under that machine's name. An imported record is validated first
-(``harness.runrecord.validate``), and one that differs from a stored run of the same identity (machine,
+(``harness.store.runrecord.validate``), and one that differs from a stored run of the same identity (machine,
 target build, test case and its content, run name) is a conflict: reported and left out unless
 ``replace`` is asked for, so that an edited copy of a record can never silently turn a failure into a pass.
 """
@@ -13,11 +13,11 @@ import json
 from datetime import datetime
 from pathlib import Path
 
-from harness import runrecord
-from harness.breakdown import from_timing as breakdown_from_timing
+from harness.store import runrecord
+from harness.analysis.breakdown import from_timing as breakdown_from_timing
 from harness.adapters.base import UserError
-from harness.rules import SUCCESS_STATES
-from harness.runrecord import RECORD_FILE, finite
+from harness.store.rules import SUCCESS_STATES
+from harness.store.runrecord import RECORD_FILE, finite
 
 
 def _when(value):
@@ -30,7 +30,7 @@ def store_record(record: dict, imported: bool = False, only_new: bool = False):
     """Create or update the Run (and its machine, target, build, test case, series) a record describes.
 
     ``only_new``: store it only when no run of that identity is stored yet (the stored one is returned as it
-    is); a run another process stores at the same moment wins (``harness.coverage``)."""
+    is); a run another process stores at the same moment wins (``harness.analysis.coverage``)."""
     from django.db import IntegrityError
 
     record = finite(record)
@@ -45,7 +45,7 @@ def store_record(record: dict, imported: bool = False, only_new: bool = False):
 def _store(record: dict, imported: bool, only_new: bool):
     from django.db import transaction
 
-    from harness.models import Build, Machine, Run, Series, Target, TestCase
+    from harness.store.models import Build, Machine, Run, Series, Target, TestCase
 
     with transaction.atomic():
         machine = Machine.objects.get_or_create(name=record["machine"])[0]
@@ -110,8 +110,8 @@ def _adopt_imported_build(build) -> None:
     """A build first seen in an imported record becomes its machine's current build of the target when
     that machine has none yet or only one of an older commit (the other machine resolved the revision,
     not this one; its newest commit is the best guess of what it runs now)."""
-    from harness.builds import make_current
-    from harness.models import Build
+    from harness.execution.builds import make_current
+    from harness.store.models import Build
 
     current = Build.objects.filter(target_id=build.target_id, machine_id=build.machine_id, current=True).first()
     if current is None or (build.committed_at and current.committed_at and build.committed_at > current.committed_at):
@@ -133,7 +133,7 @@ def read_record(path: Path) -> dict:
 
 def _comparable_state(state: str, run=None) -> str:
     """States that mean the same result: a checked run was post-processed; an outdated one what it was."""
-    from harness.rules import effective_state
+    from harness.store.rules import effective_state
 
     if run is not None:
         state = effective_state(run)
@@ -146,7 +146,7 @@ def _series_key(items) -> str:
 
 def conflict(record: dict):
     """How a record differs from the stored run of the same identity ('' when it does not, or none exists)."""
-    from harness.models import Run
+    from harness.store.models import Run
 
     build = record.get("build") or {}
     run = Run.objects.filter(machine__name=record["machine"], target__name=record["target"],
@@ -198,7 +198,7 @@ def import_folder(folder: Path, machine: str | None = None, replace: bool = Fals
             record["machine"] = machine
         where = runrecord.null_values(record)
         if where and record["state"] in SUCCESS_STATES:
-            # a success holding non-finite values is what this harness fails as non_finite (harness.execute)
+            # a success holding non-finite values is what this harness fails as non_finite (harness.execution.execute)
             record.update(state="failed", failure_reason="non_finite",
                           failure_message=f"imported with non-finite (null) values in {where}")
             problems.append(f"{path}: $.series: non-finite (null) values in {where}; imported as failed "

@@ -6,7 +6,7 @@ Pure predicates on a run's columns (nothing here reads the store, so every layer
 - which consistency levels pass (thesis 4.4.1);
 - how a reviewer's override is honoured (whole run, or one quantity named ``q``, ``series:q`` or
   ``series.q``) and when a run counts as accepted (``is_accepted``; its SQL form is
-  ``harness.queries.accepted_expression``, and tests/web/test_rules_agree.py checks that both agree);
+  ``harness.store.queries.accepted_expression``, and tests/web/test_rules_agree.py checks that both agree);
 - the gate: what ``harness check`` says of a covered run (``gate_status``);
 - when a run is failing (``is_failing``; SQL form ``RunQuerySet.failing``): what ``harness list -q`` lists,
   what starts a "failing since" streak and what fails ``harness check`` besides the runs not executed;
@@ -14,7 +14,7 @@ Pure predicates on a run's columns (nothing here reads the store, so every layer
 - the measured noise of a run's stepping time (``relative_spread``), read by the history and the overview.
 
 The store-side halves - the QuerySet methods ``current()``, ``failing()``, ``accepted()`` and the choice of a
-reference run - are in ``harness.queries``.
+reference run - are in ``harness.store.queries``.
 """
 from __future__ import annotations
 
@@ -54,7 +54,7 @@ def is_accepted(state: str, consistency: str, overrides: Mapping, results: Itera
     """Whether a reviewer overruled a run: a failed run by a whole-run override only; an inconsistent run by
     a whole-run override or by an override for each of its failing quantities. ``overrides`` is keyed by
     override quantity, ``results`` are (series name, quantity, level) of the run's ConsistencyResult rows.
-    The SQL of the same rule is ``harness.queries.accepted_expression``."""
+    The SQL of the same rule is ``harness.store.queries.accepted_expression``."""
     if state == "failed":
         return WHOLE_RUN in overrides
     if consistency != "inconsistent":
@@ -69,8 +69,8 @@ def gate_status(state: str, failure_accepted: bool, open_inconsistency: bool, al
     A failed run fails unless a reviewer accepted its failure (``failure_accepted``); a run of the covered
     build that was not executed fails unless ``allow_missing``, then it is skipped, as is an outdated run;
     every other run passes unless it has an inconsistency no reviewer accepted (``open_inconsistency``).
-    ``harness.check.verdict_of`` (the CLI, ``harness ci``, both JUnit writers) and the dashboard's counts
-    (``harness.queries.Tally``, from aggregated columns) call it."""
+    ``harness.analysis.check.verdict_of`` (the CLI, ``harness ci``, both JUnit writers) and the dashboard's counts
+    (``harness.store.queries.Tally``, from aggregated columns) call it."""
     if state == "failed":
         return "passed" if failure_accepted else "failed"
     if state == "not_executed":

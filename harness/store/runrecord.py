@@ -2,7 +2,7 @@
 
 Its fields are declared once, here (``RunRecord``), with their types; the record carries ``version``
 (``RECORD_VERSION``) so that a reader knows which fields to expect, as asv's results carry an api_version.
-``harness.execute`` fills a record while it runs a run, ``harness.records`` stores it and imports it.
+``harness.execution.execute`` fills a record while it runs a run, ``harness.store.records`` stores it and imports it.
 
 Records are strict JSON: a non-finite number (an engine's NaN timing, the thermo of a run that blew up) is
 written as ``null``, and a record read back (``harness import``) is validated field by field; a record that
@@ -31,8 +31,8 @@ class RunRecord:
     """One run. Times are ISO 8601 strings (UTC); ``wall_time`` in s (engine process, start-up and JIT
     compilation included); ``stepping_time`` in s (the engine's own loop time, ``stepping_time_of``);
     ``timing`` in s per category (pair, neigh, comm, modify, output, other, total, and what the engine
-    adds); ``breakdown`` the same in the harness' sections with min/avg/max over ranks (``harness.breakdown``);
-    ``profile`` the folded-stacks file of a profiled run, relative to its folder (``harness.profiles``)."""
+    adds); ``breakdown`` the same in the harness' sections with min/avg/max over ranks (``harness.analysis.breakdown``);
+    ``profile`` the folded-stacks file of a profiled run, relative to its folder (``harness.execution.profiles``)."""
 
     machine: str
     target: str
@@ -66,7 +66,7 @@ class RunRecord:
 
     @classmethod
     def from_spec(cls, spec: dict) -> "RunRecord":
-        """A fresh record (not executed) of the run a run specification (``harness.runner.make_spec``) names."""
+        """A fresh record (not executed) of the run a run specification (``harness.execution.scheduler.make_spec``) names."""
         keys = ("machine", "target", "testcase", "run", "testcase_hash", "target_definition", "build", "config",
                 "folder", "command", "adapter")
         return cls(**{key: spec[key] for key in keys if spec.get(key) is not None})
@@ -122,7 +122,7 @@ def validate(data) -> list[str]:
     if problems:
         return problems
     for key in ("machine", "target", "run"):
-        from harness.workspace import segment_problem
+        from harness.execution.workspace import segment_problem
 
         problem = segment_problem(data[key])
         if problem:
@@ -156,16 +156,16 @@ def validate(data) -> list[str]:
 
 
 def _length_problems(data: dict) -> list[str]:
-    """Texts longer than the store's columns hold (harness/models.py): PostgreSQL refuses them, SQLite would
+    """Texts longer than the store's columns hold (harness/store/models.py): PostgreSQL refuses them, SQLite would
     keep them; both stores refuse the record so that they agree."""
     try:
-        from harness.models import Build, Series, TestCase
+        from harness.store.models import Build, Series, TestCase
     except Exception:  # noqa: BLE001 - without a configured store there is no column to compare with
         return []
     limits = [("$.testcase", data.get("testcase"), TestCase, "path")]
     build = data.get("build") if isinstance(data.get("build"), dict) else {}
     limits += [(f"$.build.{key}", build.get(key), Build, key) for key in ("commit", "definition_hash", "revision")]
-    from harness.models import Run
+    from harness.store.models import Run
 
     limits.append(("$.testcase_hash", data.get("testcase_hash"), Run, "testcase_hash"))
     for i, series in enumerate(data.get("series", [])):

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from filelock import Timeout
 
-from harness.workspace import workspace
+from harness.execution.workspace import workspace
 
-#: name of the workspace lock held while migrating (harness.workspace.Workspace.lock)
+#: name of the workspace lock held while migrating (harness.execution.workspace.Workspace.lock)
 LOCK_NAME = "migrate"
 #: seconds to wait for another process that is migrating the same store
 LOCK_TIMEOUT = 600

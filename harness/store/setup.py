@@ -10,7 +10,7 @@ def setup_store(migrate: bool = True) -> None:
     """Configure Django with the store settings (unless already configured) and bring the schema up to date.
 
     A bad ``HARNESS_DATABASE_URL`` or a missing database driver is a one-line UserError. Migrations run
-    under the store's lock (``harness.schema.ensure_schema``), shared with the dashboard.
+    under the store's lock (``harness.store.schema.ensure_schema``), shared with the dashboard.
     """
     global _ready
     if _ready:
@@ -32,7 +32,7 @@ def setup_store(migrate: bool = True) -> None:
         raise UserError(f"store settings: {exc}") from None
     if migrate:
         # the store's models (Django) load once Django is set up (harness.store)
-        from harness.schema import SchemaBehind, ensure_schema
+        from harness.store.schema import SchemaBehind, ensure_schema
 
         try:
             ensure_schema()

@@ -1,9 +1,9 @@
-"""Expectations and stability checks of run configurations (harness.acceptance)."""
+"""Expectations and stability checks of run configurations (harness.config.acceptance)."""
 import numpy as np
 import pandas as pd
 import pytest
 
-from harness.acceptance import evaluate, validate
+from harness.config.acceptance import evaluate, validate
 
 
 def thermo(**columns):

@@ -1,5 +1,5 @@
 """The cost figure the run summary shows for every run (what each effect of a scene costs)."""
-from harness.runner import cost_per_particle_step, summary_table
+from harness.execution.scheduler import cost_per_particle_step, summary_table
 
 
 def test_cost_per_particle_step_prefers_cpu_time():

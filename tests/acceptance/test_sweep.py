@@ -1,10 +1,10 @@
-"""Sweep expansion, error table and observed convergence order (harness.sweep)."""
+"""Sweep expansion, error table and observed convergence order (harness.config.sweep)."""
 import math
 
 import numpy as np
 import pandas as pd
 
-from harness import sweep as sw
+from harness.config import sweep as sw
 
 
 SWEEP = {"variable": "DTF", "values": [0.4, 0.2, 0.1], "error": {"quantity": "thermo.ke", "exact": 1.0}}

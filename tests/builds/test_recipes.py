@@ -12,8 +12,8 @@ import pytest
 from build_support import (commit_files, git_repo, harness, tiny_repo, tiny_target, write_target)
 
 from harness.adapters.base import UserError
-from harness.builds import BuildError, build_target, first_error_line
-from harness.targets import load_target_file
+from harness.execution.builds import BuildError, build_target, first_error_line
+from harness.config.targets import load_target_file
 
 pytestmark = pytest.mark.skipif(not (shutil.which("cmake") and shutil.which("c++") and shutil.which("ccache")),
                                 reason="needs cmake, a C++ compiler and ccache (scripts/setup.sh)")
@@ -75,7 +75,7 @@ def test_a_compile_error_is_a_stored_failed_build_with_its_first_error_line(stor
         build_target(target, "m1")
     first_line = str(info.value).splitlines()[0]
     assert "other.cpp:1:" in first_line and "error:" in first_line and "undeclared_name" in first_line
-    from harness.models import Build
+    from harness.store.models import Build
 
     build = Build.objects.get(target__name="tiny")
     assert build.status == "failed" and build.duration > 0 and "undeclared_name" in build.details["error"]
@@ -139,7 +139,7 @@ def test_requirements_are_checked_first_and_a_miss_is_one_line(store):
         with pytest.raises(UserError, match=r"Debian package no-such-dev-package.*apt-get install "
                                             r"no-such-dev-package"):
             build_target(load_target_file(path), "m1")
-    from harness.models import Build
+    from harness.store.models import Build
 
     assert not Build.objects.exists()                      # nothing started
 
@@ -175,7 +175,7 @@ def test_cmake_needs_generated_executable_and_dem_refuses_build_fields(tmp_path)
 
 
 def test_bare_repository_and_bundle_resolve_every_rev_parse_spelling(store):
-    from harness import gitrepo
+    from harness.config import gitrepo
 
     repo = tiny_repo(store / "work")
     v1 = repo.commit("v1").hexsha
@@ -245,7 +245,7 @@ def test_build_without_names_leaves_on_demand_targets_out(store):
 
 
 def test_the_liggghts_src_definition_loads_and_its_patch_ranges_name_commits_of_the_bundle():
-    from harness import gitrepo
+    from harness.config import gitrepo
 
     target = load_target_file(Path(__file__).resolve().parents[2] / "targets" / "liggghts-src.json")
     assert target.on_demand and target.recipe == "cmake" and target.export == ["src"]

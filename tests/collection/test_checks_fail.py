@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-from harness.workspace import PROJECT_ROOT
+from harness.execution.workspace import PROJECT_ROOT
 
 CASES = PROJECT_ROOT / "testcases"
 

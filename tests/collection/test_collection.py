@@ -10,7 +10,7 @@ import xml.etree.ElementTree as ET
 import pandas as pd
 import pytest
 
-from harness.workspace import PROJECT_ROOT
+from harness.execution.workspace import PROJECT_ROOT
 
 
 def harness(home, *args, timeout=1500):
@@ -54,7 +54,7 @@ def test_sweeps_show_second_order_in_the_time_step(collection):
     assert sweep.returncode == 0, sweep.stdout[-3000:] + sweep.stderr[-3000:]
     table = pd.read_csv(next(home.glob("sweeps/ci/dem/testcases/accuracy/oscillator/dt.csv")))
     assert list(table["value"]) == sorted(table["value"], reverse=True)
-    from harness.sweep import observed_order
+    from harness.config.sweep import observed_order
 
     order = observed_order(table["value"], table["error"])
     assert 1.8 < order < 2.3, table

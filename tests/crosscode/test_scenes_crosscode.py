@@ -20,8 +20,8 @@ import pytest
 
 from crosscode_testing import PROJECT, harness, records, series
 from harness.adapters import get_adapter
-from harness.consistency import compare_runs
-from harness.postprocess import read_vtk_points
+from harness.analysis.consistency import compare_runs
+from harness.execution.postprocess import read_vtk_points
 
 DRUM = PROJECT / "testcases" / "scenes" / "drum"
 NAME = "testcases/scenes/drum/rotating"

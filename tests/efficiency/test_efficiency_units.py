@@ -12,8 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from harness import breakdown as bd
-from harness import profiles, scaling
+from harness.analysis import breakdown as bd
+from harness.execution import profiles
+from harness.analysis import scaling
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -65,7 +66,7 @@ def test_scaling_block_expands_to_mpi_ranks_or_threads_with_the_weak_variable():
 
 def test_scaling_problems_are_one_line_each_with_their_json_path(tmp_path):
     from harness.adapters import get_adapter
-    from harness.testcases import load_testcase
+    from harness.config.testcases import load_testcase
 
     (tmp_path / "scene.json").write_text("[]")
     (tmp_path / "run.config").write_text(json.dumps({"runs": [

@@ -9,8 +9,8 @@ import pytest
 
 from harness_support import commit_files, fake_engine_source, git_repo
 from harness.adapters.base import UserError
-from harness.builds import BuildError, build_target, sha256_file
-from harness.targets import load_target_file
+from harness.execution.builds import BuildError, build_target, sha256_file
+from harness.config.targets import load_target_file
 
 HELLO_C = '#include <stdio.h>\nint main(void) { printf("%s\\n", GREETING); return 0; }\n'
 MAKEFILE = "hello_%: hello.c\n\t$(CC) -DGREETING='\"$(GREETING)\"' -o $@ hello.c\n"
@@ -50,7 +50,7 @@ def test_revision_not_found_and_missing_engine(store):
     target = load_target_file(target_file(store / "repo", "t", {}))
     with pytest.raises(BuildError, match="cannot export 'engine'.*no such folder at that commit"):
         build_target(target, "m1")
-    from harness.models import Build
+    from harness.store.models import Build
 
     assert Build.objects.get(target__name="t").status == "failed"
 
@@ -100,7 +100,7 @@ def test_system_recipe_commit_is_the_binary_digest(store, tmp_path):
 
 
 def test_a_new_binary_makes_earlier_runs_outdated(store):
-    from harness.models import Run, TestCase
+    from harness.store.models import Run, TestCase
 
     repo = git_repo(store / "repo")
     commit_files(repo, {"engine/__main__.py": fake_engine_source(), "engine/__init__.py": ""}, "v1")

@@ -46,7 +46,7 @@ def project(store):
 def test_tables_fit_120_columns_and_messages_are_whole_on_request(project, capsys):
     from django.contrib.auth import get_user_model
 
-    from harness.models import Override, Run
+    from harness.store.models import Override, Run
 
     assert harness(project, "run") == 0
     out = capsys.readouterr()
@@ -98,7 +98,7 @@ def test_status_help_explains_every_column(capsys):
 
 
 def test_ci_prints_the_commit_page_of_each_build_when_a_dashboard_is_configured(project, capsys, monkeypatch):
-    from harness.models import Build
+    from harness.store.models import Build
 
     assert harness(project, "ci", "--junit", str(project.parent / "junit.xml")) == 1
     assert "dashboard:" not in capsys.readouterr().out  # no dashboard URL: no link
@@ -113,7 +113,7 @@ def test_ci_prints_the_commit_page_of_each_build_when_a_dashboard_is_configured(
 def test_repeat_keeps_every_stepping_time(project, capsys):
     """``harness run --repeat 3``: each engine runs three times; the three stepping times are stored (the fake
     engine reports 2 ms each time) and the run's stepping time is their median."""
-    from harness.models import Run
+    from harness.store.models import Run
 
     assert harness(project, "run", "reference_release", "--repeat", "0") == 1
     assert "--repeat must be at least 1" in capsys.readouterr().err

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from harness.consistency import (GOOD, INCONSISTENT, LENGTH_MISMATCH, MISSING, PERFECT, compare_runs,
+from harness.analysis.consistency import (GOOD, INCONSISTENT, LENGTH_MISMATCH, MISSING, PERFECT, compare_runs,
                                  compare_trajectory, compare_words, level_of, run_level, score)
 
 

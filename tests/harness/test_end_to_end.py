@@ -104,7 +104,7 @@ def project(store):
 
 
 def test_versions_built_run_and_checked_with_junit(project, store, capsys):
-    from harness.models import ConsistencyResult, Override, Run
+    from harness.store.models import ConsistencyResult, Override, Run
 
     assert harness(project, "run", "ref", "good", "bad", "-j", "2") == 0
     out = capsys.readouterr()
@@ -152,7 +152,7 @@ def test_versions_built_run_and_checked_with_junit(project, store, capsys):
 
 
 def test_every_fault_is_recorded_and_the_rest_still_runs(project, store, capsys):
-    from harness.models import Run
+    from harness.store.models import Run
 
     assert harness(project, "run", "faulty", "-j", "2") == 1
     captured = capsys.readouterr()
@@ -205,7 +205,7 @@ def test_unknown_target_and_broken_target_file_are_one_line_errors(project, caps
 
 
 def test_import_runs_from_another_machine(project, store, tmp_path, capsys):
-    from harness.models import Run
+    from harness.store.models import Run
 
     assert harness(project, "run", "ref", "-k", "init") == 0
     source = Path(Run.objects.get(target__name="ref", name="init").folder)

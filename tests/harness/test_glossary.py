@@ -1,9 +1,9 @@
-"""docs/glossary.md says what harness/glossary.py says (the dashboard's tooltips and the CLI's help use the
+"""docs/glossary.md says what harness/report/glossary.py says (the dashboard's tooltips and the CLI's help use the
 module): every word with its very sentence, and no word the module lacks."""
 import re
 
-from harness import glossary
-from harness.workspace import PROJECT_ROOT
+from harness.report import glossary
+from harness.execution.workspace import PROJECT_ROOT
 
 
 def test_the_glossary_page_holds_every_word_of_the_module():

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from harness.cli import main
-from harness.workspace import PROJECT_ROOT
+from harness.execution.workspace import PROJECT_ROOT
 
 SCENE = [
     {"command": "create", "object": "domain", "lo": [-0.03, -0.03, -0.01], "hi": [0.03, 0.03, 0.08],
@@ -35,7 +35,7 @@ SCENE = [
 def test_bundled_engine_end_to_end(store, tmp_path):
     if not (PROJECT_ROOT / ".git").exists():
         pytest.skip("needs the project's git checkout")
-    from harness.models import Run, Series
+    from harness.store.models import Run, Series
 
     case = tmp_path / "cases" / "pour"
     case.mkdir(parents=True)

@@ -1,7 +1,7 @@
-"""Runs that go at once share the machine's cores (harness.runner.with_thread_share)."""
+"""Runs that go at once share the machine's cores (harness.execution.scheduler.with_thread_share)."""
 import os
 
-from harness.runner import THREAD_VARIABLES, with_thread_share
+from harness.execution.scheduler import THREAD_VARIABLES, with_thread_share
 
 
 def test_each_of_several_runs_gets_its_share_of_the_cores(monkeypatch):

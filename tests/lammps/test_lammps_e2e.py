@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.consistency import compare_runs, run_level
+from harness.analysis.consistency import compare_runs, run_level
 from lammps_support import EXAMPLES, harness, needs_lammps, needs_mpirun, records, series
 
 pytestmark = [needs_lammps, pytest.mark.lammps]

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from harness.adapters import get_adapter
-from harness.consistency import compare_runs
-from harness.postprocess import read_vtk_points
+from harness.analysis.consistency import compare_runs
+from harness.execution.postprocess import read_vtk_points
 from liggghts_support import harness, needs_liggghts, records, series
 
 pytestmark = [needs_liggghts, pytest.mark.liggghts]

@@ -1,4 +1,4 @@
-"""A run that has clearly blown up fails by default in the harness too (harness.acceptance's default check
+"""A run that has clearly blown up fails by default in the harness too (harness.config.acceptance's default check
 ``blowup``), on real runs of the bundled engine built from this repository: a gas at 1.5 times the critical
 time step fails whether the engine stops it (its own limit) or not (a scene that switches the engine's limit
 off is still failed by the harness), and a run.config that declares the hard case passes, the engine getting

@@ -47,13 +47,13 @@ def test_three_processes_on_one_workspace_store_every_run_exactly_once(tmp_path)
 PLAN_THEN_EXECUTE = """
 import subprocess, sys
 from pathlib import Path
-from harness.workspace import Workspace, use_workspace
+from harness.execution.workspace import Workspace, use_workspace
 home, targets, other = sys.argv[1], Path(sys.argv[2]), sys.argv[3:]
 with use_workspace(Workspace.at(home)):
     from harness.store import setup_store
     setup_store()
-    from harness.runner import RunOptions, RunReport, execute_tasks, plan_target
-    from harness.targets import load_targets
+    from harness.execution.scheduler import RunOptions, RunReport, execute_tasks, plan_target
+    from harness.config.targets import load_targets
     report = RunReport()
     tasks = plan_target(load_targets(targets)[0]["dev"], RunOptions(machine="m1", jobs=1), report, print)
     print("planned", len(tasks))

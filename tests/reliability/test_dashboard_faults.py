@@ -254,7 +254,7 @@ class TestDebugSetting:
 class BoundedPagesTest(TestCase):
     @classmethod
     def setUpTestData(cls):
-        from harness.models import Build, Machine, Run, Target, TestCase as Case
+        from harness.store.models import Build, Machine, Run, Target, TestCase as Case
 
         cls.root = Path(tempfile.mkdtemp(prefix="dashboard-faults-big-"))
         machine = Machine.objects.create(name="big")
@@ -473,7 +473,7 @@ import django
 django.setup()
 from django.core.management import call_command
 call_command("migrate", verbosity=0)
-from harness.models import Build, Machine, Run, Target, TestCase
+from harness.store.models import Build, Machine, Run, Target, TestCase
 machine = Machine.objects.create(name="ws")
 target = Target.objects.create(name="dem", definition={})
 build = Build.objects.create(target=target, machine=machine, revision="HEAD", commit="f" * 40, definition_hash="x",
@@ -541,7 +541,7 @@ class ProvenanceTest(TestCase):
         assert "Verdict: failed</strong> (inconsistent): ke: inconsistent, C = 0.8257, first bad step 1000" in html
 
     def test_reference_of_other_content_is_flagged(self):
-        from harness.models import Run
+        from harness.store.models import Run
 
         Run.objects.filter(pk=self.s["reference"].pk).update(testcase_hash="77" * 32)
         html = self.client.get(f"/runs/{self.s['inconsistent'].pk}/consistency/").content.decode()
@@ -549,7 +549,7 @@ class ProvenanceTest(TestCase):
 
     def test_junit_of_several_machines_asks_for_one(self):
         from dashboard_data import add_bulk_runs
-        from harness.models import Machine
+        from harness.store.models import Machine
 
         other = Machine.objects.create(name="cluster7")
         add_bulk_runs(2, other, self.s["master"], self.s["new_build"])
@@ -568,10 +568,10 @@ DASHBOARD_JUNIT = """
 import json, sys, django
 MODE = "{mode}"
 django.setup()
-from harness.schema import ensure_schema
+from harness.store.schema import ensure_schema
 ensure_schema()  # what a server does when it starts
 from django.test import Client
-from harness.models import Machine, Override, Run, Target
+from harness.store.models import Machine, Override, Run, Target
 if MODE == "override":
     for run in Run.objects.filter(target__name="bad", build__current=True):
         Override.objects.create(run=run, quantity="", reason="gravity changed on purpose")

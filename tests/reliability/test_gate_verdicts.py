@@ -18,7 +18,7 @@ DASHBOARD_JUNIT = """
 import json, django
 django.setup()
 from django.test import Client
-from harness.models import Machine, Target
+from harness.store.models import Machine, Target
 client = Client()
 query = {"machine": Machine.objects.get(name="m1").pk, "target": Target.objects.get(name="solo").pk, **EXTRA}
 response = client.get("/junit.xml", query)

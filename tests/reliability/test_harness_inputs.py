@@ -192,11 +192,11 @@ FUZZ_BASES = [
 
 
 def test_any_value_in_any_field_gives_runs_the_planner_and_the_store_can_take(tmp_path):
-    """Discovery never raises on a run.config, and what it hands on is what the planner (harness.runner
+    """Discovery never raises on a run.config, and what it hands on is what the planner (harness.execution.scheduler
     reads ``variables`` and ``thermo_columns`` as objects, ``timeout`` as a number) and the store (strict
     JSON, no NaN) can take; every problem is one line."""
     from harness.adapters import get_adapter
-    from harness.testcases import RUN_KEYS, load_testcase
+    from harness.config.testcases import RUN_KEYS, load_testcase
 
     (tmp_path / "scene.json").write_text("[]")
     failures = []
@@ -220,7 +220,7 @@ def test_any_value_in_any_field_gives_runs_the_planner_and_the_store_can_take(tm
 
 
 def test_non_finite_numbers_are_refused_with_line_and_column(tmp_path):
-    from harness.jsonfile import load_json
+    from harness.config.jsonfile import load_json
 
     path = tmp_path / "run.config"
     path.write_text('{"runs": [\n  {"name": "a", "timeout": NaN}\n]}\n')
@@ -246,8 +246,8 @@ def test_a_nan_in_a_finished_runs_file_does_not_lose_the_earlier_result(shared):
 
 def test_json_paths_count_entries_as_written_when_a_sweep_comes_first(tmp_path):
     """A sweep expands into several runs; the JSON path of a later entry is still its index in the file."""
-    from harness.jsonfile import load_json
-    from harness.testcases import parse_run_config
+    from harness.config.jsonfile import load_json
+    from harness.config.testcases import parse_run_config
 
     case = tmp_path / "case"
     case.mkdir()
@@ -278,7 +278,7 @@ BAD_TARGETS = {
 
 @pytest.mark.parametrize("case", sorted(BAD_TARGETS))
 def test_a_broken_target_file_is_one_problem_with_file_and_json_path(tmp_path, case):
-    from harness.targets import load_targets
+    from harness.config.targets import load_targets
 
     fields, where, text = BAD_TARGETS[case]
     folder = tmp_path / "targets"
@@ -345,7 +345,7 @@ def test_a_run_named_after_a_folder_outside_the_workspace_through_the_cli(projec
 
 
 def test_unsafe_target_file_names_are_problems(tmp_path):
-    from harness.targets import load_targets, select_targets
+    from harness.config.targets import load_targets, select_targets
 
     folder = tmp_path / "targets"
     folder.mkdir()
@@ -398,7 +398,7 @@ def _targets(folder: Path, references: dict) -> None:
     ({"a": "b", "b": "c", "c": "d", "d": "b", "e": None}, ["b", "c", "d"]),
 ])
 def test_reference_cycles_are_problems_of_every_target_in_them(tmp_path, references, cycle):
-    from harness.targets import load_targets
+    from harness.config.targets import load_targets
 
     folder = tmp_path / "targets"
     _targets(folder, references)
@@ -413,7 +413,7 @@ def test_reference_cycles_are_problems_of_every_target_in_them(tmp_path, referen
 
 
 def test_reference_of_refuses_a_cycle_even_for_a_target_loaded_from_its_file(tmp_path):
-    from harness.targets import load_target_file, reference_of
+    from harness.config.targets import load_target_file, reference_of
 
     folder = tmp_path / "targets"
     _targets(folder, {"a": "b", "b": "a"})

@@ -123,7 +123,7 @@ def test_bisect_finds_a_planted_change_to_the_bundled_engine(tmp_path):
 
 
 def test_speed_detector_marks_a_step_and_ignores_noise():
-    from harness.regressions import speed_changes
+    from harness.analysis.regressions import speed_changes
 
     noisy = [1.0, 1.04, 0.97, 1.02, 0.99, 1.03, 0.98]
     assert speed_changes(noisy) == []
@@ -133,7 +133,7 @@ def test_speed_detector_marks_a_step_and_ignores_noise():
 
 
 def test_a_speed_change_inside_the_spread_of_repeated_runs_is_not_marked():
-    from harness.regressions import relative_spread, speed_changes
+    from harness.analysis.regressions import relative_spread, speed_changes
 
     times = [1.0, 1.0, 1.0, 1.0, 1.0, 1.3]
     assert [i for i, _ in speed_changes(times)] == [5]                         # no repeats: a 30 % step

@@ -13,7 +13,7 @@ import pytest
 from django.contrib.staticfiles.testing import StaticLiveServerTestCase
 
 from dashboard_data import make_store
-from harness.workspace import PROJECT_ROOT
+from harness.execution.workspace import PROJECT_ROOT
 
 CHROMIUM = Path("/usr/bin/chromium")
 ARTIFACTS = PROJECT_ROOT / "test-artifacts"
@@ -211,8 +211,8 @@ class BrowserTest(BrowserCase):
         import urllib.request
         from concurrent.futures import ThreadPoolExecutor
 
-        from harness.models import Run, Series
-        from harness.sweep import expand
+        from harness.store.models import Run, Series
+        from harness.config.sweep import expand
 
         s = self.s
         spec = {"variable": "DT", "values": [4e-4, 2e-4, 1e-4], "error": {"quantity": "thermo.z", "exact": 1.0}}

@@ -37,8 +37,8 @@ class FlameGraphBrowserTest(BrowserCase):
         self.page.screenshot(path=str(ARTIFACTS / "flamegraph_differential.png"), full_page=True)
 
     def test_scaling_page_draws_speedup_and_efficiency_over_commits(self):
-        from harness import scaling
-        from harness.models import Build, Run
+        from harness.analysis import scaling
+        from harness.store.models import Build, Run
 
         build = self.s["new_build"]
         Build.objects.filter(pk=build.pk).update(current=True)

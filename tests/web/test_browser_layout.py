@@ -87,8 +87,8 @@ class LayoutTest(BrowserCase):
 
         from test_dashboard_efficiency import STACKS_A, STACKS_B, T0, TIMES, breakdown
 
-        from harness import scaling
-        from harness.models import Build, Run, Target, TestCase
+        from harness.analysis import scaling
+        from harness.store.models import Build, Run, Target, TestCase
 
         machine = self.s["ws1"]
         target = Target.objects.create(name="liggghts-src", definition={"recipe": "cmake"})

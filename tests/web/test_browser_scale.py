@@ -26,7 +26,7 @@ class BrowserScaleTest(BrowserCase):
     def test_every_page_with_its_plots_under_a_second_with_ten_thousand_runs(self):
         from dashboard_data import add_bulk_runs
 
-        from harness.models import Run
+        from harness.store.models import Run
 
         s = self.s
         add_bulk_runs(RUNS - Run.objects.count(), s["ws1"], s["master"], s["new_build"])

@@ -8,8 +8,8 @@ from datetime import datetime, timedelta, timezone
 from django.test import TestCase
 from django.urls import reverse
 
-from harness.junit import build_failure_suite
-from harness.models import Build, Machine, Target
+from harness.report.junit import build_failure_suite
+from harness.store.models import Build, Machine, Target
 
 T0 = datetime(2026, 3, 1, 12, 0, tzinfo=timezone.utc)
 ERROR = "../src/src/finish.cpp:722:40: error: ordered comparison of pointer with integer zero"

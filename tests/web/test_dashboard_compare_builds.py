@@ -9,8 +9,8 @@ from pathlib import Path
 from django.test import TestCase
 
 from dashboard_data import T0, kinetic_energy, make_store, thesis_consistency
-from harness.compare import compare_builds, rows, summary
-from harness.models import Build
+from harness.analysis.compare import compare_builds, rows, summary
+from harness.store.models import Build
 
 
 def cells(html: str) -> list[list[str]]:
@@ -23,7 +23,7 @@ def cells(html: str) -> list[list[str]]:
 class CompareBuildsTest(TestCase):
     @classmethod
     def setUpTestData(cls):
-        from harness.models import Run
+        from harness.store.models import Run
 
         cls.s = make_store(Path(tempfile.mkdtemp(prefix="compare-builds-")))
         # finished runs: an outdated run of an older build is, for that build, what it ended as
@@ -75,7 +75,7 @@ class CompareBuildsTest(TestCase):
         self.assertEqual(compared.status_code, 200)
 
     def test_stepping_time_ratio_and_its_geometric_mean(self):
-        from harness.models import Run
+        from harness.store.models import Run
 
         Run.objects.filter(pk=self.s["older"].pk).update(stepping_time=2.0)
         Run.objects.filter(pk=self.s["inconsistent"].pk).update(stepping_time=1.0)
@@ -99,8 +99,8 @@ class CompareBuildsQueriesTest(TestCase):
         from django.test.utils import CaptureQueriesContext
 
         from dashboard_data import add_series
-        from harness.compare import compare_pair
-        from harness.models import Machine, Run, Target, TestCase as Case
+        from harness.analysis.compare import compare_pair
+        from harness.store.models import Machine, Run, Target, TestCase as Case
 
         machine, target = Machine.objects.create(name="ws"), Target.objects.create(name="dem")
         builds = [Build.objects.create(target=target, machine=machine, revision="HEAD", commit=c * 40,

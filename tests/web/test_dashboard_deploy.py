@@ -13,7 +13,7 @@ import urllib.error
 import urllib.request
 
 from harness.commands import serve
-from harness.workspace import PROJECT_ROOT
+from harness.execution.workspace import PROJECT_ROOT
 
 
 def env_for(tmp_path, **extra):

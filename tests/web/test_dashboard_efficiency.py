@@ -12,9 +12,9 @@ from pathlib import Path
 
 from django.test import TestCase
 
-from harness import scaling
-from harness.models import Build, Machine, Run, Target
-from harness.models import TestCase as Case
+from harness.analysis import scaling
+from harness.store.models import Build, Machine, Run, Target
+from harness.store.models import TestCase as Case
 
 T0 = datetime(2026, 1, 1, tzinfo=timezone.utc)
 #: stepping times of a strong scaling study on 1 and 2 cores at two commits: the second scales worse

@@ -10,7 +10,7 @@ from django.db import connection
 from django.test import TestCase
 from django.test.utils import CaptureQueriesContext
 
-from harness.models import Build, ConsistencyResult, Machine, Override, Run, Target, TestCase as Case
+from harness.store.models import Build, ConsistencyResult, Machine, Override, Run, Target, TestCase as Case
 
 T0 = datetime(2026, 3, 1, tzinfo=timezone.utc)
 
@@ -45,7 +45,7 @@ class FailingSinceTest(TestCase):
                                        "finished": T0},
                       "not_run": {"state": "not_executed"}}[outcome]
             if i < 4 and outcome != "not_run" and machine == ws1:
-                fields["state"] = "outdated"  # what harness.builds.make_current leaves of an older build's run
+                fields["state"] = "outdated"  # what harness.execution.builds.make_current leaves of an older build's run
             made = Run.objects.create(machine=machine, target=cls.target, build=build, testcase=cls.case,
                                       name=name, testcase_hash="ab" * 32, **fields, **kw)
             if outcome == "inconsistent":  # its bad quantity (without one, nothing is left to overrule)

@@ -115,7 +115,7 @@ def test_the_dashboard_gives_the_json_harness_matrix_writes(workspace, server):
 
 
 def test_the_page_shows_every_cell_as_the_cli_prints_it_linking_to_the_two_runs(workspace, server):
-    from harness.matrix import _c, _short
+    from harness.analysis.matrix import _c, _short
 
     home, cli, printed = workspace
     status, page = server("/matrix/")

@@ -34,7 +34,7 @@ def test_thermo_quantity_has_units_and_run_legend():
 
 
 def test_vtk_ke_without_masses_is_per_unit_mass():
-    # harness.postprocess.vtk_aggregates: ke equals ke_per_mass (J/kg) when the dumps carry no masses
+    # harness.execution.postprocess.vtk_aggregates: ke equals ke_per_mass (J/kg) when the dumps carry no masses
     no_mass = series(kind="vtk", name="dumps", columns={"step": [0, 1], "ke": [2.0, 1.0], "ke_per_mass": [2.0, 1.0]})
     with_mass = series(kind="vtk", name="dumps", columns={"step": [0, 1], "ke": [0.2, 0.1], "ke_per_mass": [2.0, 1.0]})
     assert plots.series_plot([("#1", no_mass)], "ke")["ylabel"] == "ke [J/kg]"
@@ -85,7 +85,7 @@ def test_expectations_are_drawn_with_their_tolerance():
 
 
 def test_bands_are_the_thesis_levels_and_agree_with_the_check():
-    from harness.consistency import score
+    from harness.analysis.consistency import score
 
     ref, run = kinetic_energy(), kinetic_energy(shift=8e-5)
     c, eps, first_bad, level = thesis_consistency(run, ref)

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from django.test import TestCase
 
-from harness.workspace import PROJECT_ROOT
+from harness.execution.workspace import PROJECT_ROOT
 
 LIGGGHTS = Path("/usr/bin/liggghts")
 pytestmark = [pytest.mark.liggghts,
@@ -38,7 +38,7 @@ def client_with_real_run(real_run_folder, request):
 @pytest.mark.usefixtures("client_with_real_run")
 class RealRunTest(TestCase):
     def test_pages_of_a_real_liggghts_run(self):
-        from harness.records import import_folder
+        from harness.store.records import import_folder
 
         runs, problems = import_folder(self.runs_root)
         assert problems == [] and len(runs) == 1

@@ -51,7 +51,7 @@ def test_log_named_by_the_targets_engine_adapter(tmp_path):
     for engine in ("dem", "liggghts"):
         texts = folder_with(tmp_path / engine, {}, files, engine=engine).texts()
         assert texts["log"].name == get_adapter(engine).log_file()
-    # a target definition without "engine" is the bundled engine's (harness/targets.py)
+    # a target definition without "engine" is the bundled engine's (harness/config/targets.py)
     rf = RunFolder(SimpleNamespace(folder=str(tmp_path / "dem"), config={}, target=SimpleNamespace(definition={})))
     assert rf.texts()["log"].text == "bundled engine log\n"
     unknown = folder_with(tmp_path / "other", {}, files, engine="no-such-engine")

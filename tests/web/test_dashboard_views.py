@@ -14,7 +14,7 @@ from django.test import Client, TestCase
 from django.test.utils import CaptureQueriesContext
 
 from dashboard_data import add_bulk_runs, make_store
-from harness.models import Override, Run
+from harness.store.models import Override, Run
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -65,7 +65,7 @@ class OverviewTest(DashboardTest):
         self.assertEqual(list(rows), ["dem-master", "dem-v1"])  # failing first
         master = cells(rows["dem-master"])
         # verdict, target, commit, passed, failed, not run (+ runs of older builds), consistency, lowest C
-        # the run never executed is a failure of the gate, as in harness check (harness.coverage)
+        # the run never executed is a failure of the gate, as in harness check (harness.analysis.coverage)
         self.assertEqual(master[:6], ["failed", "dem-master vs dem-v1", "cccccccccc HEAD", "1", "3", "0 +1 older"])
         self.assertEqual(master[6], "1 consistent 1 inconsistent 2 not checked")
         self.assertEqual(master[7], f"{self.s['c']:.4f}")
@@ -77,11 +77,11 @@ class OverviewTest(DashboardTest):
                          ["failed", "passed"])
 
     def test_the_overview_verdict_is_the_one_harness_check_gives(self):
-        """Per target, the passed / failed / not run counts equal the stored verdicts of harness.verdicts (the
+        """Per target, the passed / failed / not run counts equal the stored verdicts of harness.analysis.verdicts (the
         verdicts `harness check` writes), also after a reviewer overrules a failure and an inconsistency."""
-        from harness.models import Override
-        from harness.coverage import covered_runs
-        from harness.verdicts import stored_verdict
+        from harness.store.models import Override
+        from harness.analysis.coverage import covered_runs
+        from harness.analysis.verdicts import stored_verdict
 
         def from_check():
             out = {}
@@ -111,7 +111,7 @@ class OverviewTest(DashboardTest):
         self.assertEqual(cells(target_rows(self.get("/").content.decode())["dem-master"])[0], "passed")
 
     def test_commit_links_to_the_repository_web_view(self):
-        from harness.models import Target
+        from harness.store.models import Target
 
         master = self.s["master"]
         Target.objects.filter(pk=master.pk).update(
@@ -164,7 +164,7 @@ class OverviewTest(DashboardTest):
                       self.get(f"/testcases/{s['hertz'].path}/").content.decode())
 
     def test_words_carry_the_glossary_sentence_as_tooltip(self):
-        from harness.glossary import ALL
+        from harness.report.glossary import ALL
         from django.utils.html import escape
 
         html = self.get(f"/testcases/{self.s['hertz'].path}/").content.decode()
@@ -181,7 +181,7 @@ class OverviewTest(DashboardTest):
         self.assertNotIn("Runs found", self.get("/").content.decode())
 
     def test_older_build_runs_are_named_when_the_current_build_has_none(self):
-        from harness.models import Build
+        from harness.store.models import Build
 
         Build.objects.filter(pk=self.s["new_build"].pk).update(current=False)
         Build.objects.filter(pk=self.s["older"].build_id).update(current=True)
@@ -192,7 +192,7 @@ class OverviewTest(DashboardTest):
                       "has none yet", html)
 
     def test_bar_colors_say_whether_anything_failed(self):
-        from harness.queries import Tally
+        from harness.store.queries import Tally
         from webfrontend.templatetags.dashboard import bar_color, verdict
 
         def tally(ok, bad, not_run=0):
@@ -216,7 +216,7 @@ class OverviewTest(DashboardTest):
         self.assertEqual(cells(target_rows(html)["dem-master"])[3], "151")
 
     def test_machine_selection(self):
-        from harness.models import Machine
+        from harness.store.models import Machine
 
         other = Machine.objects.create(name="cluster7")
         add_bulk_runs(3, other, self.s["master"], self.s["new_build"])
@@ -328,7 +328,7 @@ class RunDetailTest(DashboardTest):
         self.assertEqual([s["label"] for s in specs[0]["series"]][-1].split(":")[0], "reference")
 
     def test_axis_columns_are_not_plotted_unless_the_run_configuration_asks(self):
-        from harness.models import Series
+        from harness.store.models import Series
 
         run = self.s["inconsistent"]
         thermo = Series.objects.get(run=run, kind="thermo")
@@ -351,7 +351,7 @@ class RunDetailTest(DashboardTest):
         self.assertIn("non-zero exit code: engine exited with code 3", html)
 
     def test_fixed_query_count(self):
-        from harness.models import Series
+        from harness.store.models import Series
 
         url = f"/runs/{self.s['inconsistent'].pk}/"
         before = self.queries(url)
@@ -546,9 +546,9 @@ class OverruleTest(DashboardTest):
         self.assertIn("Not overruled: quantity", response.content.decode())
 
     def test_quantity_keys_match_harness_check(self):
-        from harness.check import verdict_of
-        from harness.consistency import QuantityResult
-        from harness.models import ConsistencyResult
+        from harness.analysis.check import verdict_of
+        from harness.analysis.consistency import QuantityResult
+        from harness.store.models import ConsistencyResult
 
         run = self.s["inconsistent"]
         ConsistencyResult.objects.create(run=run, reference_run=self.s["reference"], series_kind="plot",
@@ -626,7 +626,7 @@ class HistoryJunitStaticTest(DashboardTest):
         self.assertEqual(response["Content-Type"], "application/xml")
         root = ET.fromstring(response.content)
         cases = {(c.get("classname"), c.get("name")): c for c in root.iter("testcase")}
-        # harness.check's writer: the target is part of the class name, so two targets' runs never collide
+        # harness.analysis.check's writer: the target is part of the class name, so two targets' runs never collide
         self.assertEqual(set(cases), {("dem-master.contact_models.hooke.impact", "serial"),
                                       ("dem-master.contact_models.hooke.impact", "mpi4"),
                                       ("dem-master.contact_models.hertz.impact", "serial"),
@@ -634,7 +634,7 @@ class HistoryJunitStaticTest(DashboardTest):
                                       ("dem-v1.contact_models.hertz.impact", "serial")})  # not the older build's
         self.assertEqual(cases[("dem-master.contact_models.hooke.impact", "serial")].find("failure").get("type"),
                          "exit_code")
-        # a run of the current build that was not executed fails the gate (harness.coverage), as in the CLI
+        # a run of the current build that was not executed fails the gate (harness.analysis.coverage), as in the CLI
         self.assertEqual(cases[("dem-master.contact_models.hooke.impact", "mpi4")].find("failure").get("type"),
                          "not_executed")
         inconsistent = cases[("dem-master.contact_models.hertz.impact", "serial")]

@@ -1,4 +1,4 @@
-"""One rules layer: the Python predicates of harness.rules and their SQL forms in harness.queries agree, and
+"""One rules layer: the Python predicates of harness.store.rules and their SQL forms in harness.store.queries agree, and
 ``harness list -q`` (``RunQuerySet.failing``), the "failing since" streaks and ``harness check``'s verdicts
 name the same failing runs, on a store with every kind of reviewer override."""
 from __future__ import annotations
@@ -8,10 +8,10 @@ from datetime import datetime, timedelta, timezone
 from django.contrib.auth import get_user_model
 from django.test import TestCase
 
-from harness import rules
-from harness.coverage import covered_runs
-from harness.models import Build, ConsistencyResult, Machine, Override, Run, Target, TestCase as Case
-from harness.verdicts import stored_verdict
+from harness.store import rules
+from harness.analysis.coverage import covered_runs
+from harness.store.models import Build, ConsistencyResult, Machine, Override, Run, Target, TestCase as Case
+from harness.analysis.verdicts import stored_verdict
 
 T0 = datetime(2026, 3, 1, tzinfo=timezone.utc)
 
@@ -100,7 +100,7 @@ class RulesAgreeTest(TestCase):
         from django.db import connection
         from django.test.utils import CaptureQueriesContext
 
-        from harness.builds import current_build
+        from harness.execution.builds import current_build
 
         with CaptureQueriesContext(connection) as queries:
             build = current_build("dem", "ws1")

@@ -13,7 +13,7 @@ import pytest
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
 from harness.adapters.yade import LAUNCHER, YadeAdapter, python_of
-from harness.postprocess import read_vtk_points, vtk_aggregates
+from harness.execution.postprocess import read_vtk_points, vtk_aggregates
 from yade_testing import FALL, MASS, YADE, needs_yade, run_yade
 
 pytestmark = [needs_yade, pytest.mark.yade]

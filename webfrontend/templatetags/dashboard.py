@@ -98,7 +98,7 @@ def compare_limit():
 
 @register.filter
 def speed_change(speed):
-    """'+12 %' (slower) or '-8 %' (faster) of a stepping-time change (harness.queries.stepping_changes)."""
+    """'+12 %' (slower) or '-8 %' (faster) of a stepping-time change (harness.store.queries.stepping_changes)."""
     from webfrontend.presentation import speed_change as change
 
     return change(speed["ratio"], speed.get("noise") or 0.0)
@@ -115,8 +115,8 @@ def verdict_label(value):
 
 @register.simple_tag
 def glossary(term):
-    """The glossary's sentence for ``term`` (harness.glossary, docs/glossary.md), for a tooltip."""
-    from harness.glossary import define
+    """The glossary's sentence for ``term`` (harness.report.glossary, docs/glossary.md), for a tooltip."""
+    from harness.report.glossary import define
 
     return define(term)
 
@@ -134,6 +134,6 @@ def level_label(value):
 @register.filter
 def defined(term):
     """The glossary's sentence for ``term``, or '' for a word it lacks (for tooltips on stored values)."""
-    from harness.glossary import ALL
+    from harness.report.glossary import ALL
 
     return ALL.get(str(term), "")

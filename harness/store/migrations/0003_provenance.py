@@ -29,7 +29,7 @@ class Migration(migrations.Migration):
         migrations.AddField(
             model_name='build',
             name='current',
-            field=models.BooleanField(db_index=True, default=False, help_text="the build of the commit the target's revision resolved to when last asked (one per target and machine; harness.builds)"),
+            field=models.BooleanField(db_index=True, default=False, help_text="the build of the commit the target's revision resolved to when last asked (one per target and machine; harness.execution.builds)"),
         ),
         migrations.AddField(
             model_name='run',

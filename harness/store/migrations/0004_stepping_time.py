@@ -5,7 +5,7 @@ from django.db import migrations, models
 
 def fill_stepping_time(apps, schema_editor):
     """Runs recorded before: their stepping time is the loop time already in their timing breakdown."""
-    from harness.runrecord import stepping_time_of
+    from harness.store.runrecord import stepping_time_of
 
     Run = apps.get_model("harness", "Run")
     for run in Run.objects.exclude(timing={}).only("id", "timing").iterator():

@@ -1,10 +1,10 @@
-"""``runserver`` that first brings the store's schema up to date (harness.schema), so that
+"""``runserver`` that first brings the store's schema up to date (harness.store.schema), so that
 ``python manage.py runserver`` opens a store the CLI created - or an older one - without a separate
 ``migrate``; static files stay with whitenoise (its runserver is the base class)."""
 from django.core.management.base import CommandError
 from whitenoise.runserver_nostatic.management.commands.runserver import Command as WhitenoiseRunserver
 
-from harness.schema import SchemaBehind, ensure_schema
+from harness.store.schema import SchemaBehind, ensure_schema
 
 
 class Command(WhitenoiseRunserver):
