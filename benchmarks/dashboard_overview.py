@@ -20,7 +20,15 @@ from dashboard_timing import dashboard_store, time_pages
 def generate(total_runs: int) -> dict:
     from django.contrib.auth import get_user_model
 
-    from harness.store.models import Build, ConsistencyResult, Machine, Override, Run, Target, TestCase
+    from harness.store.models import (
+        Build,
+        ConsistencyResult,
+        Machine,
+        Override,
+        Run,
+        Target,
+        TestCase,
+    )
 
     t0 = datetime(2026, 1, 1, tzinfo=timezone.utc)
     machines = [Machine.objects.create(name=f"node{i}") for i in range(2)]

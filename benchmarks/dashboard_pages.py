@@ -26,6 +26,7 @@ def main() -> int:
     with dashboard_store() as (home, client):
         # the dashboard tests' store (tests/web, on the path through dashboard_timing) once Django is set up
         from dashboard_data import add_bulk_runs, make_store
+
         from harness.store.models import Run
 
         s = make_store(home / "runs")

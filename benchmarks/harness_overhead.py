@@ -44,8 +44,13 @@ def main(runs: int = 50):
 
     start = time.perf_counter()
     setup_store()
-    from harness.execution.scheduler import RunOptions, execute_tasks, plan_target, RunReport
     from harness.config.targets import load_target_file
+    from harness.execution.scheduler import (
+        RunOptions,
+        RunReport,
+        execute_tasks,
+        plan_target,
+    )
 
     target = load_target_file(targets / "trivial.json")
     report = RunReport()

@@ -21,9 +21,14 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import harness.commands as package
-from harness.report import textout
 from harness.adapters.base import UserError
-from harness.execution.workspace import Workspace, segment_problem, use_workspace, workspace
+from harness.execution.workspace import (
+    Workspace,
+    segment_problem,
+    use_workspace,
+    workspace,
+)
+from harness.report import textout
 
 
 def _commands():

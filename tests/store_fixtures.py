@@ -18,7 +18,9 @@ def store_fixtures(prefix: str):
 
     @pytest.fixture(scope="session")
     def django_store():
-        from harness.store import setup_store  # after HARNESS_HOME is set: the store's settings read it
+        from harness.store import (
+            setup_store,  # after HARNESS_HOME is set: the store's settings read it
+        )
 
         setup_store()
         yield
@@ -27,7 +29,11 @@ def store_fixtures(prefix: str):
     @pytest.fixture
     def store(django_store, tmp_path, monkeypatch):
         """An empty store; builds and run folders of this test under ``tmp_path/home``."""
-        from harness.store.models import Machine, Target, TestCase  # Django is set up by django_store
+        from harness.store.models import (  # Django is set up by django_store
+            Machine,
+            Target,
+            TestCase,
+        )
 
         Machine.objects.all().delete()
         Target.objects.all().delete()

@@ -12,8 +12,8 @@ from django.shortcuts import get_object_or_404, render
 from django.urls import reverse
 
 from harness.analysis import breakdown as bd
-from harness.execution import profiles
 from harness.analysis import scaling
+from harness.execution import profiles
 from harness.store.models import Build, Machine, Run, Target, TestCase
 from webfrontend import params, plots
 

@@ -18,11 +18,24 @@ from django.urls import reverse
 from django.utils.http import urlencode
 from django.views.decorators.http import require_POST
 
-from harness.execution.builds import current_build
-from harness.store.models import Build, ConsistencyResult, Machine, Override, Run, Series, Target, TestCase
 from harness.analysis.coverage import covered_runs, failed_current_builds
-from harness.store.queries import CONSISTENCY_CATEGORIES, STATE_CATEGORIES, stepping_changes
 from harness.analysis.verdicts import stored_junit_xml, stored_verdict
+from harness.execution.builds import current_build
+from harness.store.models import (
+    Build,
+    ConsistencyResult,
+    Machine,
+    Override,
+    Run,
+    Series,
+    Target,
+    TestCase,
+)
+from harness.store.queries import (
+    CONSISTENCY_CATEGORIES,
+    STATE_CATEGORIES,
+    stepping_changes,
+)
 from webfrontend import params, plots, presentation
 from webfrontend.forms import OverrideForm
 from webfrontend.runfiles import RunFolder

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from harness.config.acceptance import blowup_limit
 from harness.adapters import register
 from harness.adapters.base import EngineAdapter, LogScan, LoopBlock, UserError
+from harness.config.acceptance import blowup_limit
 from harness.execution.postprocess import dump_step
 
 TIMING_KEYS = ("pair", "neigh", "comm", "modify", "output", "other", "total")

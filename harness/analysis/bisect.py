@@ -11,11 +11,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from harness.config import gitrepo
 from harness.adapters.base import UserError
-from harness.execution.builds import record_current_build
 from harness.analysis.compare import Comparison, compare_builds
+from harness.config import gitrepo
 from harness.config.revisions import at_revision
+from harness.execution.builds import record_current_build
 from harness.execution.scheduler import RunOptions, run_targets
 
 

@@ -17,9 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from harness.report import junit
 from harness.adapters.base import UserError
-from harness.execution.builds import failed_build, failure_message, record_current_build
 from harness.analysis.consistency import QuantityResult, compare_runs, run_level
 from harness.analysis.coverage import (
     covered_runs,
@@ -28,6 +26,8 @@ from harness.analysis.coverage import (
     record_selection,
     selected,
 )
+from harness.execution.builds import failed_build, failure_message, record_current_build
+from harness.report import junit
 from harness.report.junit import provenance  # noqa: F401  (what a verdict was computed on; the dashboard shows it)
 from harness.store.rules import WHOLE_RUN, gate_status, override_for, quantity_fails
 

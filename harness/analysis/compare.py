@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from harness.analysis.consistency import compare_runs, run_level
-from harness.store.rules import SUCCESS_STATES, effective_state
 from harness.config.testcases import matches
+from harness.store.rules import SUCCESS_STATES, effective_state
 
 FAILING_OUTCOMES = ("new_failure", "inconsistent")
 

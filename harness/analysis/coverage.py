@@ -25,13 +25,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from harness.execution import execute as ex
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
+from harness.config.testcases import CONFIG_RUN, discover, matches
+from harness.execution import execute as ex
 from harness.execution.builds import BUILD_FAILED
 from harness.execution.planning import build_info, make_spec
 from harness.store.records import store_record
-from harness.config.testcases import CONFIG_RUN, discover, matches
 
 
 @dataclass

@@ -25,10 +25,10 @@ from pathlib import Path
 
 from harness.analysis.check import series_of
 from harness.analysis.consistency import compare_runs
-from harness.store.rules import SUCCESS_STATES
-from harness.store.runrecord import finite
 from harness.config.testcases import matches
 from harness.report.textout import format_table
+from harness.store.rules import SUCCESS_STATES
+from harness.store.runrecord import finite
 
 #: thermo quantities shown in the matrix (others the codes print under different names are not comparable)
 QUANTITIES = ("ke", "rke", "atoms")

@@ -17,8 +17,8 @@ import statistics
 from dataclasses import dataclass, field
 
 from harness.analysis.compare import attach_series, compare_pair, run_rows, scored
-from harness.store.rules import SUCCESS_STATES, effective_state, relative_spread
 from harness.config.testcases import matches
+from harness.store.rules import SUCCESS_STATES, effective_state, relative_spread
 
 
 @dataclass

@@ -26,12 +26,12 @@ def run(args) -> int:
         raise UserError("--slower must be a factor above 1 (e.g. 1.2)")
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.config import gitrepo
     from harness.analysis.bisect import bisect
     from harness.analysis.compare import rows
-    from harness.report.links import commit_page
-    from harness.execution.scheduler import format_table
+    from harness.config import gitrepo
     from harness.config.targets import select_targets
+    from harness.execution.scheduler import format_table
+    from harness.report.links import commit_page
 
     (target,), _problems = select_targets([args.target], args.targets_dir)
     result = bisect(target, args.good, args.bad, args.machine, args.pattern, args.slower, args.jobs,

@@ -20,8 +20,8 @@ def configure(parser):
 
 def run(args) -> int:
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.execution.builds import build_target
     from harness.config.revisions import expand
+    from harness.execution.builds import build_target
 
     if args.jobs is not None and args.jobs < 1:
         raise UserError(f"-j {args.jobs}: must be at least 1")

@@ -63,10 +63,10 @@ def run(args) -> int:
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.analysis.check import check_targets, write_junit
     from harness.config.revisions import expand
-    from harness.execution.scheduler import format_table
-    from harness.store.runrecord import finite
     from harness.config.targets import with_testcases
+    from harness.execution.scheduler import format_table
     from harness.report.textout import ELLIPSIS, width, wrap
+    from harness.store.runrecord import finite
 
     setup_store()
     targets, problems = expand(args.targets, args.targets_dir)

@@ -29,9 +29,9 @@ def run(args) -> int:
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.analysis.check import check_targets, write_junit
     from harness.commands.run import with_references
-    from harness.report.links import commit_page
     from harness.config.revisions import expand
     from harness.execution.scheduler import RunOptions, run_targets
+    from harness.report.links import commit_page
 
     targets, problems = expand(args.targets, args.targets_dir)
     everything = with_references(targets) if args.targets else targets

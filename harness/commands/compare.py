@@ -40,8 +40,8 @@ def side(argument: str, folder):
 def run(args) -> int:
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.execution.builds import record_current_build
     from harness.analysis.compare import compare_builds, markdown, rows, summary
+    from harness.execution.builds import record_current_build
     from harness.execution.scheduler import RunOptions, format_table, run_targets
     from harness.store.runrecord import finite
 

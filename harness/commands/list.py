@@ -25,12 +25,12 @@ def configure(parser):
 def run(args) -> int:
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.execution.builds import record_current_build
-    from harness.store.models import Run, Target
-    from harness.execution.scheduler import format_table
-    from harness.store.runrecord import STATES, finite
     from harness.config.targets import load_targets
     from harness.config.testcases import matches
+    from harness.execution.builds import record_current_build
+    from harness.execution.scheduler import format_table
+    from harness.store.models import Run, Target
+    from harness.store.runrecord import STATES, finite
 
     if args.state and args.state not in STATES:
         raise UserError(f"--state: unknown state {args.state!r} (known: {', '.join(STATES)})")

@@ -28,9 +28,15 @@ def configure(parser):
 
 def run(args) -> int:
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
-    from harness.execution.builds import record_current_build
-    from harness.analysis.matrix import _c, build_matrix, format_matrix, write_csv, write_json
+    from harness.analysis.matrix import (
+        _c,
+        build_matrix,
+        format_matrix,
+        write_csv,
+        write_json,
+    )
     from harness.config.targets import select_targets
+    from harness.execution.builds import record_current_build
     from harness.execution.workspace import workspace
 
     setup_store()

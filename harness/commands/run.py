@@ -98,3 +98,18 @@ def with_references(targets):
             chosen.append(reference)
             names.add(reference.name)
     return chosen
+
+
+def run_points(args, targets, problems, points: str, **options):
+    """Run the study points of ``targets`` (runs named ``NAME@...``: ``points`` is the glob after the name,
+    within ``-k``) unless ``--no-run``, then read them: (runs that failed, [(target, build, runs)]) of
+    ``harness.execution.scheduler.run_and_read``. The selection's problems are printed first. ``harness
+    scaling`` and ``harness sweep`` tabulate what it returns."""
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
+    from harness.execution.scheduler import RunOptions, run_and_read
+
+    for problem in problems:
+        print(f"harness: {problem}", file=sys.stderr)
+    pattern = f"*{args.pattern}*{points}" if args.pattern else f"*{points}"
+    run_options = RunOptions(machine=args.machine, pattern=pattern, working_tree=args.working_tree, **options)
+    return run_and_read(targets, run_options, run=not args.no_run)

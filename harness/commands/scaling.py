@@ -30,20 +30,16 @@ def run(args) -> int:
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.analysis import scaling
+    from harness.commands.run import run_points
     from harness.config.revisions import expand
-    from harness.execution.scheduler import RunOptions, format_table, run_and_read
-    from harness.store.runrecord import finite
     from harness.config.testcases import matches
     from harness.execution.workspace import workspace
+    from harness.report.textout import format_table
+    from harness.store.runrecord import finite
 
     targets, problems = expand(args.targets, args.targets_dir)
-    for problem in problems:
-        print(f"harness: {problem}", file=sys.stderr)
     # scaling points are named NAME@cores=P: this selects exactly them; one at a time
-    pattern = f"*{args.pattern}*@cores=*" if args.pattern else "*@cores=*"
-    options = RunOptions(machine=args.machine, pattern=pattern, jobs=1, working_tree=args.working_tree,
-                         profile=args.profile)
-    failed_runs, built = run_and_read(targets, options, run=not args.no_run)
+    failed_runs, built = run_points(args, targets, problems, "@cores=*", jobs=1, profile=args.profile)
     found = 0
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     for target, build, runs in built:

@@ -49,11 +49,12 @@ def run(args) -> int:
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from django.db.models import Count
 
+    from harness.config.targets import load_targets
+
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.execution.builds import current_build, record_current_build
-    from harness.store.models import Run, Target
     from harness.execution.scheduler import format_table
-    from harness.config.targets import load_targets
+    from harness.store.models import Run, Target
 
     definitions, _problems = load_targets(args.targets_dir)
     targets = Target.objects.order_by("name")

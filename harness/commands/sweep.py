@@ -23,19 +23,16 @@ def configure(parser):
 def run(args) -> int:
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
+    from harness.commands.run import run_points
     from harness.config import sweep as sw
-    from harness.execution.scheduler import RunOptions, format_table, run_and_read
     from harness.config.targets import select_targets
     from harness.config.testcases import matches
     from harness.execution.workspace import workspace
+    from harness.report.textout import format_table
 
     targets, problems = select_targets(args.targets, args.targets_dir)
-    for problem in problems:
-        print(f"harness: {problem}", file=sys.stderr)
     # sweep points are named NAME@VARIABLE=VALUE: '@' selects exactly them
-    pattern = f"*{args.pattern}*@*" if args.pattern else "*@*"
-    options = RunOptions(machine=args.machine, pattern=pattern, jobs=args.jobs, working_tree=args.working_tree)
-    failed_runs, built = run_and_read(targets, options, run=not args.no_run)
+    failed_runs, built = run_points(args, targets, problems, "@*", jobs=args.jobs)
     found = 0
     for target, build, runs in built:
         for result in sw.sweeps_in_store(runs):

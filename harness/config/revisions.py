@@ -11,8 +11,8 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from harness.config import gitrepo
 from harness.adapters.base import UserError
+from harness.config import gitrepo
 from harness.config.targets import TargetDefinition, select_targets
 
 

@@ -23,11 +23,11 @@ from pathlib import Path
 import git
 from filelock import Timeout
 
-from harness.config import gitrepo
 from harness.adapters.base import UserError
-from harness.store.rules import restored_state
+from harness.config import gitrepo
 from harness.config.targets import TargetDefinition
 from harness.execution.workspace import workspace
+from harness.store.rules import restored_state
 
 DONE_MARKER = "done"
 #: failure reason of the runs of a target whose build failed (they are not executed)

@@ -9,8 +9,8 @@ import json
 import shlex
 from pathlib import Path
 
-from harness.analysis import scaling
 from harness.adapters.base import with_open_mpi_flags
+from harness.analysis import scaling
 from harness.config.targets import TargetDefinition
 from harness.config.testcases import RunEntry, TestCaseSpec
 from harness.execution.workspace import workspace

@@ -22,19 +22,19 @@ from pathlib import Path
 
 from filelock import Timeout
 
-from harness.execution import execute as ex
-from harness.execution import profiles
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
-from harness.execution.builds import DONE_MARKER, BuildError, build_target, failed_build
 from harness.analysis.coverage import record_build_failure, record_selection, selected
-from harness.execution.planning import build_info, make_spec
-from harness.store.records import store_record
-from harness.store.rules import SUCCESS_STATES, effective_state
 from harness.config.targets import TargetDefinition
 from harness.config.testcases import RunEntry, TestCaseSpec, discover
-from harness.report.textout import format_table  # noqa: F401  (the commands import it from here)
+from harness.execution import execute as ex
+from harness.execution import profiles
+from harness.execution.builds import DONE_MARKER, BuildError, build_target, failed_build
+from harness.execution.planning import build_info, make_spec
 from harness.execution.workspace import workspace
+from harness.report.textout import format_table  # noqa: F401  (the commands import it from here)
+from harness.store.records import store_record
+from harness.store.rules import SUCCESS_STATES, effective_state
 
 
 @dataclass

@@ -6,7 +6,6 @@ import pandas as pd
 
 from harness.config import sweep as sw
 
-
 SWEEP = {"variable": "DTF", "values": [0.4, 0.2, 0.1], "error": {"quantity": "thermo.ke", "exact": 1.0}}
 
 

@@ -9,11 +9,18 @@ import time
 from pathlib import Path
 
 import pytest
-from build_support import (commit_files, git_repo, harness, tiny_repo, tiny_target, write_target)
+from build_support import (
+    commit_files,
+    git_repo,
+    harness,
+    tiny_repo,
+    tiny_target,
+    write_target,
+)
 
 from harness.adapters.base import UserError
-from harness.execution.builds import BuildError, build_target, first_error_line
 from harness.config.targets import load_target_file
+from harness.execution.builds import BuildError, build_target, first_error_line
 
 pytestmark = pytest.mark.skipif(not (shutil.which("cmake") and shutil.which("c++") and shutil.which("ccache")),
                                 reason="needs cmake, a C++ compiler and ccache (scripts/setup.sh)")

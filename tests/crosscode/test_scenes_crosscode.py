@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from crosscode_testing import PROJECT, harness, records, series
+
 from harness.adapters import get_adapter
 from harness.analysis.consistency import compare_runs
 from harness.execution.postprocess import read_vtk_points

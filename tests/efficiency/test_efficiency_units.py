@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from harness.analysis import breakdown as bd
-from harness.execution import profiles
 from harness.analysis import scaling
+from harness.execution import profiles
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -84,8 +84,8 @@ def test_scaling_problems_are_one_line_each_with_their_json_path(tmp_path):
 
 @pytest.mark.skipif(shutil.which("lmp") is None or shutil.which("mpirun") is None, reason="needs Debian lammps")
 def test_lammps_breakdown_has_min_avg_max_over_two_ranks_and_the_pair_imbalance(tmp_path):
-    from harness.adapters.lammps import LammpsAdapter
     from harness.adapters.base import with_open_mpi_flags
+    from harness.adapters.lammps import LammpsAdapter
 
     shutil.copy(ROOT / "testcases" / "lammps" / "settling" / "in.settling", tmp_path)
     (tmp_path / "post").mkdir()

@@ -6,11 +6,11 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from harness_support import commit_files, fake_engine_source, git_repo
+
 from harness.adapters.base import UserError
-from harness.execution.builds import BuildError, build_target, sha256_file
 from harness.config.targets import load_target_file
+from harness.execution.builds import BuildError, build_target, sha256_file
 
 HELLO_C = '#include <stdio.h>\nint main(void) { printf("%s\\n", GREETING); return 0; }\n'
 MAKEFILE = "hello_%: hello.c\n\t$(CC) -DGREETING='\"$(GREETING)\"' -o $@ hello.c\n"

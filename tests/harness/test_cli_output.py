@@ -5,9 +5,9 @@ import json
 from pathlib import Path
 
 import pytest
+from harness_support import commit_files, fake_engine_source, git_repo
 
 from harness.cli import main
-from harness_support import commit_files, fake_engine_source, git_repo
 
 #: a deep test case folder, as real suites have: its path alone is 80 characters
 CASE = "cases/granular_flow/rotating_drum_with_lifters/hertz_mindlin_rolling_friction/fall"

@@ -7,8 +7,18 @@ import pytest
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
 from harness.config.jsonfile import load_json
-from harness.config.targets import WORKING_TREE, load_target_file, load_targets, select_targets
-from harness.config.testcases import CONFIG_RUN, load_testcase, matches, parse_run_config
+from harness.config.targets import (
+    WORKING_TREE,
+    load_target_file,
+    load_targets,
+    select_targets,
+)
+from harness.config.testcases import (
+    CONFIG_RUN,
+    load_testcase,
+    matches,
+    parse_run_config,
+)
 
 
 def write(path: Path, text: str) -> Path:
@@ -139,9 +149,9 @@ def test_k_pattern_matching():
 
 
 def test_mpi_launcher_prefix(tmp_path, monkeypatch):
-    from harness.execution import planning
     from harness.adapters import base
     from harness.config.targets import parse_target
+    from harness.execution import planning
 
     target = parse_target("t", {"mpi_launcher": ["mpiexec"]}, tmp_path / "targets" / "t.json")
     monkeypatch.setattr(base, "is_open_mpi", lambda launcher: False)

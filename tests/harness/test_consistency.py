@@ -4,8 +4,19 @@ import math
 import numpy as np
 import pytest
 
-from harness.analysis.consistency import (GOOD, INCONSISTENT, LENGTH_MISMATCH, MISSING, PERFECT, compare_runs,
-                                 compare_trajectory, compare_words, level_of, run_level, score)
+from harness.analysis.consistency import (
+    GOOD,
+    INCONSISTENT,
+    LENGTH_MISMATCH,
+    MISSING,
+    PERFECT,
+    compare_runs,
+    compare_trajectory,
+    compare_words,
+    level_of,
+    run_level,
+    score,
+)
 
 
 def loop_score(ref, x):

@@ -15,8 +15,8 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
-
 from harness_support import commit_files, fake_engine_source, git_repo
+
 from harness.cli import main
 
 SCENE = [{"command": "create", "heights": [1.0, "${H}"]}, {"command": "warn"},

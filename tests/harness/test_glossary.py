@@ -2,8 +2,8 @@
 module): every word with its very sentence, and no word the module lacks."""
 import re
 
-from harness.report import glossary
 from harness.execution.workspace import PROJECT_ROOT
+from harness.report import glossary
 
 
 def test_the_glossary_page_holds_every_word_of_the_module():

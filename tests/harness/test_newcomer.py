@@ -5,10 +5,10 @@ import json
 from pathlib import Path
 
 import pytest
+from harness_support import commit_files, fake_engine_source, git_repo
 
 from harness.cli import main
 from harness.execution.workspace import PROJECT_ROOT
-from harness_support import commit_files, fake_engine_source, git_repo
 
 
 def harness(*args) -> int:

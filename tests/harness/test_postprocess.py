@@ -7,7 +7,12 @@ import vtk
 
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
-from harness.execution.postprocess import non_finite_columns, read_declared, read_table, vtk_aggregates
+from harness.execution.postprocess import (
+    non_finite_columns,
+    read_declared,
+    read_table,
+    vtk_aggregates,
+)
 
 
 def test_read_table_with_header_and_positional_columns(tmp_path):

@@ -6,9 +6,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from harness_process import PROJECT, harness, records, run_code, series  # noqa: F401  (the LAMMPS tests import them from here)
 
 from harness.adapters.lammps import LammpsAdapter
-from harness_process import PROJECT, harness, records, run_code, series  # noqa: F401  (the LAMMPS tests import them from here)
 
 LMP = shutil.which("lmp") or "/usr/bin/lmp"
 EXAMPLES = Path("/usr/share/lammps/examples")

@@ -7,9 +7,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from lammps_support import (
+    EXAMPLES,
+    harness,
+    needs_lammps,
+    needs_mpirun,
+    records,
+    series,
+)
 
 from harness.analysis.consistency import compare_runs, run_level
-from lammps_support import EXAMPLES, harness, needs_lammps, needs_mpirun, records, series
 
 pytestmark = [needs_lammps, pytest.mark.lammps]
 

@@ -9,12 +9,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from lammps_support import (
+    FREE_FALL,
+    MASS,
+    N_FREE_FALL,
+    needs_lammps,
+    needs_mpirun,
+    run_lammps,
+)
 
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
 from harness.adapters.lammps import LammpsAdapter, parse_timing, read_custom_dump
 from harness.execution.postprocess import read_vtk_points, vtk_aggregates
-from lammps_support import FREE_FALL, MASS, N_FREE_FALL, needs_lammps, needs_mpirun, run_lammps
 
 pytestmark = [needs_lammps, pytest.mark.lammps]
 

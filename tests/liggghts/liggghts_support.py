@@ -9,9 +9,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from harness_process import PROJECT, harness, records, run_code, series  # noqa: F401  (the LIGGGHTS tests import them from here)
 
 from harness.adapters.liggghts import LiggghtsAdapter
-from harness_process import PROJECT, harness, records, run_code, series  # noqa: F401  (the LIGGGHTS tests import them from here)
 
 SCENES = PROJECT / "testcases" / "liggghts"
 LIGGGHTS = shutil.which("liggghts") or "/usr/bin/liggghts"

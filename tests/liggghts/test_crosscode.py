@@ -11,11 +11,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from liggghts_support import harness, needs_liggghts, records, series
 
 from harness.adapters import get_adapter
 from harness.analysis.consistency import compare_runs
 from harness.execution.postprocess import read_vtk_points
-from liggghts_support import harness, needs_liggghts, records, series
 
 pytestmark = [needs_liggghts, pytest.mark.liggghts]
 

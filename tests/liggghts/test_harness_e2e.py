@@ -7,9 +7,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from liggghts_support import (
+    FREE_FALL,
+    LIGGGHTS,
+    harness,
+    needs_liggghts,
+    needs_mpirun,
+    records,
+    series,
+)
 
 from harness.analysis.consistency import compare_runs, run_level
-from liggghts_support import FREE_FALL, LIGGGHTS, harness, needs_liggghts, needs_mpirun, records, series
 
 TUTORIALS = Path("/usr/share/doc/liggghts/examples/LIGGGHTS/Tutorials_public")
 pytestmark = [needs_liggghts, pytest.mark.liggghts]

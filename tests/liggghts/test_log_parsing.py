@@ -5,8 +5,8 @@ import os
 
 import pytest
 
-from harness.adapters.base import UserError
-from harness.adapters.base import is_open_mpi, with_open_mpi_flags as mpi_prefix
+from harness.adapters.base import UserError, is_open_mpi
+from harness.adapters.base import with_open_mpi_flags as mpi_prefix
 from harness.adapters.liggghts import LOG_NAME, LiggghtsAdapter
 
 adapter = LiggghtsAdapter()

@@ -48,10 +48,9 @@ if "webfrontend" not in settings.INSTALLED_APPS:
     pytest.skip("Django was configured before this module without the dashboard settings "
                 "(use DJANGO_SETTINGS_MODULE=webfrontend.settings)", allow_module_level=True)
 
+from dashboard_data import make_store  # noqa: E402
 from django.db import connection  # noqa: E402
 from django.test import Client, TestCase, override_settings  # noqa: E402
-
-from dashboard_data import make_store  # noqa: E402
 
 #: the store's database before any test database replaces it (tests/web's session database may be active)
 _STORE_NAME = connection.settings_dict["NAME"]
@@ -254,7 +253,8 @@ class TestDebugSetting:
 class BoundedPagesTest(TestCase):
     @classmethod
     def setUpTestData(cls):
-        from harness.store.models import Build, Machine, Run, Target, TestCase as Case
+        from harness.store.models import Build, Machine, Run, Target
+        from harness.store.models import TestCase as Case
 
         cls.root = Path(tempfile.mkdtemp(prefix="dashboard-faults-big-"))
         machine = Machine.objects.create(name="big")
@@ -549,6 +549,7 @@ class ProvenanceTest(TestCase):
 
     def test_junit_of_several_machines_asks_for_one(self):
         from dashboard_data import add_bulk_runs
+
         from harness.store.models import Machine
 
         other = Machine.objects.create(name="cluster7")

@@ -4,15 +4,22 @@ ran are failures (unless --allow-missing), on a real store left by a `harness ru
 from __future__ import annotations
 
 import json
-from pathlib import Path
 import os
 import signal
 import subprocess
 import sys
 import time
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
-from provenance_support import ROOT, harness, harness_command, make_project, rows, write_target
+from provenance_support import (
+    ROOT,
+    harness,
+    harness_command,
+    make_project,
+    rows,
+    write_target,
+)
 
 DASHBOARD_JUNIT = """
 import json, django

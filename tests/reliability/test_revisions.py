@@ -6,8 +6,17 @@ import math
 import subprocess
 
 import pytest
-from provenance_support import (ROOT, commit_files, fake_engine_source, git_repo, harness, make_project, rows,
-                                scene, write_target)
+from provenance_support import (
+    ROOT,
+    commit_files,
+    fake_engine_source,
+    git_repo,
+    harness,
+    make_project,
+    rows,
+    scene,
+    write_target,
+)
 
 
 def _ok(result):

@@ -13,7 +13,15 @@ from pathlib import Path
 
 from django.contrib.auth import get_user_model
 
-from harness.store.models import Build, ConsistencyResult, Machine, Run, Series, Target, TestCase
+from harness.store.models import (
+    Build,
+    ConsistencyResult,
+    Machine,
+    Run,
+    Series,
+    Target,
+    TestCase,
+)
 
 T0 = datetime(2026, 1, 5, 12, 0, tzinfo=timezone.utc)
 STEPS = list(range(0, 2001, 100))

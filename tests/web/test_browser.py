@@ -10,9 +10,9 @@ import tempfile
 from pathlib import Path
 
 import pytest
+from dashboard_data import make_store
 from django.contrib.staticfiles.testing import StaticLiveServerTestCase
 
-from dashboard_data import make_store
 from harness.execution.workspace import PROJECT_ROOT
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -211,8 +211,8 @@ class BrowserTest(BrowserCase):
         import urllib.request
         from concurrent.futures import ThreadPoolExecutor
 
-        from harness.store.models import Run, Series
         from harness.config.sweep import expand
+        from harness.store.models import Run, Series
 
         s = self.s
         spec = {"variable": "DT", "values": [4e-4, 2e-4, 1e-4], "error": {"quantity": "thermo.z", "exact": 1.0}}

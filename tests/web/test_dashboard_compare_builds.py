@@ -6,9 +6,9 @@ import re
 import tempfile
 from pathlib import Path
 
+from dashboard_data import T0, kinetic_energy, make_store, thesis_consistency
 from django.test import TestCase
 
-from dashboard_data import T0, kinetic_energy, make_store, thesis_consistency
 from harness.analysis.compare import compare_builds, rows, summary
 from harness.store.models import Build
 
@@ -95,12 +95,13 @@ class CompareBuildsQueriesTest(TestCase):
     not grow with the pairs, and the scores are those of the two runs' model objects."""
 
     def test_queries_do_not_grow_with_scored_pairs(self):
+        from dashboard_data import add_series
         from django.db import connection
         from django.test.utils import CaptureQueriesContext
 
-        from dashboard_data import add_series
         from harness.analysis.compare import compare_pair
-        from harness.store.models import Machine, Run, Target, TestCase as Case
+        from harness.store.models import Machine, Run, Target
+        from harness.store.models import TestCase as Case
 
         machine, target = Machine.objects.create(name="ws"), Target.objects.create(name="dem")
         builds = [Build.objects.create(target=target, machine=machine, revision="HEAD", commit=c * 40,

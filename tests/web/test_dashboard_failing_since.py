@@ -10,7 +10,15 @@ from django.db import connection
 from django.test import TestCase
 from django.test.utils import CaptureQueriesContext
 
-from harness.store.models import Build, ConsistencyResult, Machine, Override, Run, Target, TestCase as Case
+from harness.store.models import (
+    Build,
+    ConsistencyResult,
+    Machine,
+    Override,
+    Run,
+    Target,
+)
+from harness.store.models import TestCase as Case
 
 T0 = datetime(2026, 3, 1, tzinfo=timezone.utc)
 

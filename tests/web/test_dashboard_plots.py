@@ -7,8 +7,8 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-
 from dashboard_data import STEPS, kinetic_energy, thesis_consistency
+
 from webfrontend import plots
 
 

@@ -3,9 +3,9 @@ from __future__ import annotations
 
 from django.test import TestCase
 
+from harness.config.sweep import expand
 from harness.store.models import Build, Machine, Run, Series, Target
 from harness.store.models import TestCase as Case
-from harness.config.sweep import expand
 
 SPEC = {"variable": "DT", "values": [4e-4, 2e-4, 1e-4], "error": {"quantity": "thermo.z", "exact": 1.0}}
 

@@ -2,18 +2,17 @@
 from __future__ import annotations
 
 import json
-
 import re
 import shutil
 import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+from dashboard_data import add_bulk_runs, make_store
 from django.db import connection
 from django.test import Client, TestCase
 from django.test.utils import CaptureQueriesContext
 
-from dashboard_data import add_bulk_runs, make_store
 from harness.store.models import Override, Run
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -79,9 +78,9 @@ class OverviewTest(DashboardTest):
     def test_the_overview_verdict_is_the_one_harness_check_gives(self):
         """Per target, the passed / failed / not run counts equal the stored verdicts of harness.analysis.verdicts (the
         verdicts `harness check` writes), also after a reviewer overrules a failure and an inconsistency."""
-        from harness.store.models import Override
         from harness.analysis.coverage import covered_runs
         from harness.analysis.verdicts import stored_verdict
+        from harness.store.models import Override
 
         def from_check():
             out = {}
@@ -164,8 +163,9 @@ class OverviewTest(DashboardTest):
                       self.get(f"/testcases/{s['hertz'].path}/").content.decode())
 
     def test_words_carry_the_glossary_sentence_as_tooltip(self):
-        from harness.report.glossary import ALL
         from django.utils.html import escape
+
+        from harness.report.glossary import ALL
 
         html = self.get(f"/testcases/{self.s['hertz'].path}/").content.decode()
         self.assertIn(f'title="{escape(ALL["version-consistency-checked"])}">version-consistency-checked<', html)

@@ -8,10 +8,18 @@ from datetime import datetime, timedelta, timezone
 from django.contrib.auth import get_user_model
 from django.test import TestCase
 
-from harness.store import rules
 from harness.analysis.coverage import covered_runs
-from harness.store.models import Build, ConsistencyResult, Machine, Override, Run, Target, TestCase as Case
 from harness.analysis.verdicts import stored_verdict
+from harness.store import rules
+from harness.store.models import (
+    Build,
+    ConsistencyResult,
+    Machine,
+    Override,
+    Run,
+    Target,
+)
+from harness.store.models import TestCase as Case
 
 T0 = datetime(2026, 3, 1, tzinfo=timezone.utc)
 

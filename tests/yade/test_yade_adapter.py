@@ -9,12 +9,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from yade_testing import FALL, MASS, YADE, needs_yade, run_yade
 
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
 from harness.adapters.yade import LAUNCHER, YadeAdapter, python_of
 from harness.execution.postprocess import read_vtk_points, vtk_aggregates
-from yade_testing import FALL, MASS, YADE, needs_yade, run_yade
 
 pytestmark = [needs_yade, pytest.mark.yade]
 

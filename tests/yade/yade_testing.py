@@ -6,9 +6,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from harness_process import PROJECT, harness, records, series  # noqa: F401  (the YADE tests import them from here)
 
 from harness.adapters.yade import YadeAdapter
-from harness_process import PROJECT, harness, records, series  # noqa: F401  (the YADE tests import them from here)
 
 YADE = shutil.which("yade") or "/usr/bin/yade"
 EXAMPLES = Path("/usr/share/doc/yade/examples")

@@ -1,6 +1,8 @@
 """``createsuperuser`` that first brings the store's schema up to date (harness.store.schema): on a fresh clone
 it may be the first command that opens the store."""
-from django.contrib.auth.management.commands.createsuperuser import Command as CreateSuperuser
+from django.contrib.auth.management.commands.createsuperuser import (
+    Command as CreateSuperuser,
+)
 from django.core.management.base import CommandError
 
 from harness.store.schema import SchemaBehind, ensure_schema

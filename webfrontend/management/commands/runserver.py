@@ -2,7 +2,9 @@
 ``python manage.py runserver`` opens a store the CLI created - or an older one - without a separate
 ``migrate``; static files stay with whitenoise (its runserver is the base class)."""
 from django.core.management.base import CommandError
-from whitenoise.runserver_nostatic.management.commands.runserver import Command as WhitenoiseRunserver
+from whitenoise.runserver_nostatic.management.commands.runserver import (
+    Command as WhitenoiseRunserver,
+)
 
 from harness.store.schema import SchemaBehind, ensure_schema
 
