@@ -156,9 +156,8 @@ def check_targets(targets, machine: str, pattern: str | None = None, allow_missi
     with the selection (``harness.analysis.coverage.record_selection``), then every covered run gets a verdict -
     broken configurations and runs not executed included. A target whose revision does not build: its runs
     are failed with reason build_failed, the build is in ``failed_builds`` and a problem."""
-    from harness.store.models import (
-        Run,  # the store's models load once Django is set up (harness.store)
-    )
+    # the store's models load once Django is set up (harness.store)
+    from harness.store.models import Run
 
     report = CheckReport()
     for target in targets:

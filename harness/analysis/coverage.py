@@ -81,9 +81,8 @@ def record_selection(target, build, machine: str, pattern: str | None = None, wo
 
     ``missing``: (failure reason, message) to record the run configurations without a row as failed with,
     instead of not executed - e.g. the runs of a build that failed, which can never execute."""
-    from harness.store.models import (
-        Run,  # the store's models load once Django is set up (harness.store)
-    )
+    # the store's models load once Django is set up (harness.store)
+    from harness.store.models import Run
 
     chosen, specs = selection(target, pattern, working_tree, discovered)
     if chosen is None:

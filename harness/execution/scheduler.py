@@ -29,7 +29,7 @@ from harness.config.targets import TargetDefinition
 from harness.config.testcases import RunEntry, TestCaseSpec, discover
 from harness.execution import execute as ex
 from harness.execution import profiles
-from harness.execution.builds import DONE_MARKER, BuildError, build_target, failed_build
+from harness.execution.builds import DONE_MARKER, BuildError, build_target, failed_build, record_current_build
 from harness.execution.planning import build_info, make_spec
 from harness.execution.workspace import workspace
 from harness.report.textout import format_table  # noqa: F401  (the commands import it from here)
@@ -416,9 +416,8 @@ class _Execution:
 
     def done_elsewhere(self, task: Task) -> None:
         """A run another process finished meanwhile: its stored result stands for it (not run again)."""
-        from harness.store.models import (
-            Run,  # the store's models load once Django is set up (harness.store)
-        )
+        # the store's models load once Django is set up (harness.store)
+        from harness.store.models import Run
 
         row = Run.objects.get(build_id=task.spec["build"]["id"], machine__name=task.spec["machine"],
                               testcase__path=task.spec["testcase"], name=task.spec["run"],
@@ -506,8 +505,6 @@ def run_and_read(targets: list[TargetDefinition], options: RunOptions, run: bool
     each target's current build on the machine, for the commands that tabulate studies over run points
     (``harness scaling``, ``harness sweep``). Returns (runs that failed, [(target, build, runs)]), a target
     whose revision is not built here left out."""
-    from harness.execution.builds import record_current_build
-
     # the store's models (Django) load once Django is set up (harness.store)
     from harness.store.models import Run
 
