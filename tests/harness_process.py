@@ -21,19 +21,24 @@ PROJECT = Path(__file__).resolve().parents[1]
 MACHINE = "testbox"
 
 
+def command(home: Path, *args: str, targets: Path | None = None, machine: str = MACHINE) -> list[str]:
+    """The command line of ``harness ARGS`` on the store under ``home``, recording as ``machine``."""
+    line = [sys.executable, "-m", "harness.cli", "--machine", machine, "--home", str(home)]
+    if targets is not None:
+        line += ["--targets", str(targets)]
+    return line + [str(a) for a in args]
+
+
 def harness(home: Path, *args: str, targets: Path | None = None, check: bool = True, machine: str = MACHINE,
             timeout: float = 600, env: dict | None = None, popen: bool = False):
     """Run ``harness ARGS`` on the store under ``home``; with ``check`` its exit code must be 0 (the output is
     in the assertion). ``env``: the whole environment (None: this process'); ``popen``: start it and return
     the Popen (stdout and stderr piped) instead of waiting."""
-    command = [sys.executable, "-m", "harness.cli", "--machine", machine, "--home", str(home)]
-    if targets is not None:
-        command += ["--targets", str(targets)]
-    command += [str(a) for a in args]
+    line = command(home, *args, targets=targets, machine=machine)
     if popen:
-        return subprocess.Popen(command, cwd=PROJECT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        return subprocess.Popen(line, cwd=PROJECT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                 text=True)
-    result = subprocess.run(command, cwd=PROJECT, capture_output=True, text=True, errors="replace",
+    result = subprocess.run(line, cwd=PROJECT, capture_output=True, text=True, errors="replace",
                             timeout=timeout, env=env)
     if check:
         assert result.returncode == 0, result.stdout + result.stderr
@@ -41,10 +46,11 @@ def harness(home: Path, *args: str, targets: Path | None = None, check: bool = T
 
 
 def project_env(**extra: str) -> dict:
-    """This process' environment with the project first on PYTHONPATH and no HARNESS_HOME (``--home`` names
-    the store), plus ``extra``."""
+    """This process' environment with the project first on PYTHONPATH, no HARNESS_HOME (``--home`` names the
+    store) and no DJANGO_SETTINGS_MODULE (the harness picks its store settings), plus ``extra``."""
     environment = {**os.environ, "PYTHONPATH": str(PROJECT), **extra}
     environment.pop("HARNESS_HOME", None)
+    environment.pop("DJANGO_SETTINGS_MODULE", None)
     return environment
 
 

@@ -3,10 +3,9 @@
 Every run of the bundled engine target must pass its expectations and stability checks and be consistent with
 the pinned reference target; the sweeps must show Velocity-Verlet's second order.
 """
-import subprocess
-import sys
 import xml.etree.ElementTree as ET
 
+import harness_process
 import pandas as pd
 import pytest
 
@@ -14,8 +13,7 @@ from harness.execution.workspace import PROJECT_ROOT
 
 
 def harness(home, *args, timeout=1500):
-    cmd = [sys.executable, "-m", "harness.cli", "--machine", "ci", "--home", str(home), *args]
-    return subprocess.run(cmd, cwd=PROJECT_ROOT, capture_output=True, text=True, timeout=timeout)
+    return harness_process.harness(home, *args, machine="ci", check=False, timeout=timeout)
 
 
 @pytest.fixture(scope="module")

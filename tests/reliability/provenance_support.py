@@ -4,25 +4,21 @@ from __future__ import annotations
 
 import importlib.util
 import json
-import os
 import sqlite3
 import subprocess
-import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+import harness_process
+from harness_process import PROJECT as ROOT
+from harness_process import commit_files, git_repo, project_env  # noqa: F401  (the reliability tests import them from here)
 
 
-def _load_harness_support():
-    spec = importlib.util.spec_from_file_location("harness_support_for_reliability",
-                                                  ROOT / "tests" / "harness" / "harness_support.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-support = _load_harness_support()
-git_repo, commit_files, fake_engine_source = support.git_repo, support.commit_files, support.fake_engine_source
+# the fake engine's source (tests/harness/harness_support.py), loaded by path: that folder is not on the path
+_spec = importlib.util.spec_from_file_location("harness_support_for_reliability",
+                                               ROOT / "tests" / "harness" / "harness_support.py")
+_support = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_support)
+fake_engine_source = _support.fake_engine_source
 
 
 def scene(height: float = 1.0, steps: int = 200, sleep: float = 0.0) -> str:
@@ -63,16 +59,14 @@ def write_target(targets: Path, name: str, revision: str, repo, reference: str |
 
 
 def harness_command(project: dict, *args: str, machine: str = "m1") -> list[str]:
-    return [sys.executable, "-m", "harness.cli", "--machine", machine, "--home", str(project["home"]),
-            "--targets", str(project["targets"]), *args]
+    return harness_process.command(project["home"], *args, targets=project["targets"], machine=machine)
 
 
 def harness(project: dict, *args: str, machine: str = "m1", timeout: float = 300, env: dict | None = None
             ) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": str(ROOT), **(env or {})}
-    env.pop("HARNESS_HOME", None)
-    return subprocess.run(harness_command(project, *args, machine=machine), cwd=ROOT, env=env,
-                          capture_output=True, text=True, timeout=timeout)
+    """``harness ARGS`` on the project's store as ``machine`` (the exit code is the caller's to check)."""
+    return harness_process.harness(project["home"], *args, targets=project["targets"], machine=machine,
+                                   check=False, timeout=timeout, env=project_env(**(env or {})))
 
 
 def rows(project: dict, sql: str, *params) -> list[tuple]:

@@ -6,10 +6,8 @@ the declared limit too."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
-from provenance_support import ROOT, rows
+from provenance_support import ROOT, harness, rows
 from test_engine_verdicts import gas
 
 
@@ -28,11 +26,7 @@ def _project(tmp_path, scenes: dict, runs: list) -> dict:
 
 
 def _harness(project, *args):
-    env = {k: v for k, v in __import__("os").environ.items() if k not in ("HARNESS_HOME", "DJANGO_SETTINGS_MODULE")}
-    env["PYTHONPATH"] = str(ROOT)
-    return subprocess.run([sys.executable, "-m", "harness.cli", "--machine", "m1", "--home", str(project["home"]),
-                           "--targets", str(project["targets"]), *args], cwd=ROOT, env=env, capture_output=True,
-                          text=True, timeout=1200)
+    return harness(project, *args, timeout=1200)
 
 
 def test_blown_up_runs_fail_by_default_and_a_declared_hard_case_passes(tmp_path):

@@ -26,6 +26,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "tests" / "harness"))
 
+import harness_process  # noqa: E402
 from harness_support import commit_files, fake_engine_source, git_repo  # noqa: E402
 
 SCENE = [{"command": "create", "heights": [1.0, 0.5]}, {"command": "run", "steps": 200, "every": 20}]
@@ -41,11 +42,7 @@ def env(home: Path) -> dict:
 
 
 def harness(home: Path, targets: Path, *args: str) -> subprocess.CompletedProcess:
-    done = subprocess.run([sys.executable, "-m", "harness.cli", "--machine", "matrixbox", "--home", str(home),
-                           "--targets", str(targets), *args], cwd=REPO, env=env(home), capture_output=True,
-                          text=True, timeout=600)
-    assert done.returncode == 0, done.stdout + done.stderr
-    return done
+    return harness_process.harness(home, *args, targets=targets, machine="matrixbox", env=env(home))
 
 
 @pytest.fixture(scope="module")
