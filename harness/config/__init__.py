@@ -1,0 +1,24 @@
+"""The declarative schema of the harness' files: targets (``targets/*.json``), run.config, generic adapter
+definition files and run records (``run.json``).
+
+Each file kind is a pydantic model (``runconfig.RunConfig``, ``target.Target``, ``adapter.AdapterFile``,
+``record.RunRecordFile``): its fields, their types, bounds, choices, defaults and descriptions are written once
+there. From the models come
+
+- the JSON Schema of each kind (``export.json_schema``, printed by ``harness schema KIND``), so that an editor
+  validates a file while it is typed, and a test validates every file of the repository against it;
+- docs/run-config.md (``export.markdown``, printed by ``harness schema run.config --markdown``);
+- the sets of known fields the readers of the files check against (``known_fields``).
+
+The readers (``harness.targets``, ``harness.testcases``, ``harness.adapters.generic``, ``harness.runrecord``)
+add what a schema cannot say (a file that must exist, a dependency cycle, a field only one recipe takes) and
+report every problem as a ``harness.jsonfile.Problem``: the file, the JSON path and the message.
+
+This package imports only pydantic and the harness' constant tables (run states, reductions, recipes); it
+never imports the store, the runner or an adapter.
+"""
+from __future__ import annotations
+
+from harness.config.base import known_fields
+
+__all__ = ["known_fields"]
