@@ -27,32 +27,14 @@ import subprocess
 from collections import Counter
 from pathlib import Path
 
+from harness.config.runconfig import CALL_GRAPHS
+
 FOLDED_FILE = "profile.folded"
 PERF_DATA = "perf.data"
 #: samples per second per thread: enough for runs of seconds; a DWARF sample copies 8 kB of stack, so this
 #: bounds perf.data to about 2 MB per second and rank
 PERF_FREQUENCY = 249
-#: how perf finds the callers: "dwarf" unwinds from debug information and works for binaries built without
-#: frame pointers (Debian's liggghts and lmp); "fp" (perf record -g's default) is cheaper but needs a code
-#: compiled with -fno-omit-frame-pointer, else most stacks end after one frame
-CALL_GRAPHS = ("dwarf", "fp")
 DEFAULT_SETTINGS = {"call_graph": "dwarf", "frequency": PERF_FREQUENCY}
-
-
-def validate(value) -> list[str]:
-    """Problems of a run.config entry's ``profile`` field: true/false or ``{"call_graph", "frequency"}``."""
-    if isinstance(value, bool):
-        return []
-    if not isinstance(value, dict):
-        return ["profile: must be true, false or an object with call_graph (dwarf, fp) and frequency (Hz)"]
-    problems = [f"profile.{key}: unknown field (known: call_graph, frequency)"
-                for key in sorted(set(value) - {"call_graph", "frequency"})]
-    if value.get("call_graph", "dwarf") not in CALL_GRAPHS:
-        problems.append(f"profile.call_graph: must be one of {', '.join(CALL_GRAPHS)}")
-    frequency = value.get("frequency", PERF_FREQUENCY)
-    if isinstance(frequency, bool) or not isinstance(frequency, int) or not 1 <= frequency <= 20000:
-        problems.append("profile.frequency: must be an integer number of samples per second, 1 to 20000")
-    return problems
 
 
 def settings(value) -> dict | None:

@@ -12,7 +12,7 @@ from pydantic.json_schema import GenerateJsonSchema
 
 from harness.config.adapter import AdapterFile
 from harness.config.record import RunRecordFile
-from harness.config.runconfig import RunConfig, RunEntry
+from harness.config.runconfig import RunConfig, RunConfigEntry
 from harness.config.target import Target
 
 #: the file kinds ``harness schema`` knows, by the name a user types
@@ -63,9 +63,9 @@ _GENERATED = ("<!-- generated from harness/config/runconfig.py by `harness schem
 def markdown() -> str:
     """docs/run-config.md: the run.config reference, from the models' docstrings and field descriptions."""
     out = [_GENERATED, "", "# run.config reference", "", _prose(RunConfig.__doc__), "",
-           "## A run configuration", "", _prose(RunEntry.__doc__), "", _table(RunEntry)]
-    seen = {RunConfig, RunEntry}
-    for model in _nested_models(RunEntry):
+           "## A run configuration", "", _prose(RunConfigEntry.__doc__), "", _table(RunConfigEntry)]
+    seen = {RunConfig, RunConfigEntry}
+    for model in _nested_models(RunConfigEntry):
         if model in seen:
             continue
         seen.add(model)

@@ -4,34 +4,49 @@ The class docstrings and field descriptions are the text of docs/run-config.md (
 """
 from __future__ import annotations
 
-from typing import Annotated, Literal, Union
+from typing import Annotated, ClassVar, Literal, Union
 
 from pydantic import Field
 
 from harness.config.base import FileModel
+from harness.config.check import Says
 
 RUN_TYPES = ("serial", "mpi", "mpi/custom")
 #: how a column becomes one number (``harness.acceptance.reduce_values``)
 REDUCTIONS = ("end", "start", "min", "max", "mean")
 SCALING_KINDS = ("strong", "weak")
+#: how perf finds the callers (harness.profiles): "dwarf" unwinds from debug information and works for binaries
+#: built without frame pointers (Debian's liggghts and lmp); "fp" (perf record -g's default) is cheaper but needs
+#: a code compiled with -fno-omit-frame-pointer, else most stacks end after one frame
 CALL_GRAPHS = ("dwarf", "fp")
+#: a safe single path segment (``harness.workspace.segment_problem`` says why a name is not one)
+SAFE_NAME = r"^[A-Za-z0-9_][A-Za-z0-9_.,:=@+\-]*$"
 DEFAULT_TIMEOUT = 600.0
 
-Number = Union[int, float]
+Number = float  # strict: an integer is a number, true is not
 Scalar = Union[str, int, float]
 #: ``SERIES.COLUMN`` or a sum of such terms
-Quantity = Annotated[str, Field(pattern=r"^\s*[^\s.+]+\.[^+]+(\+\s*[^\s.+]+\.[^+]+)*$")]
+Quantity = Annotated[str, Field(pattern=r"^\s*[^\s.+]+\.[^+]+(\+\s*[^\s.+]+\.[^+]+)*$"),
+                     Says(what="a string SERIES.COLUMN, e.g. 'thermo.ke'",
+                          missing="must be a string SERIES.COLUMN, e.g. 'thermo.ke'",
+                          bound="{value!r} is not of the form SERIES.COLUMN (or a sum of such terms)")]
+FiniteNumber = Annotated[Number, Says(what="a finite number")]
+Tolerance = Annotated[Number, Field(ge=0), Says(what="a finite number", bound="must be >= 0, got {value!r}")]
+NonNegative = Annotated[Number, Field(ge=0), Says(what="a number", bound="must not be negative")]
+Variables = Annotated[dict[str, list[Scalar]], Says(
+    what="an object mapping variable names to lists of values", item="a list with one value per point")]
 
 
 class Series(FileModel):
     """A CSV or whitespace table written by the run. Its columns are quantities ``NAME.COLUMN`` for
     expectations and plots; a series is scored against the reference run's through a plot of it."""
 
+    model_config = {"extra": "allow"}
     name: str
     """the series' name: the ``SERIES`` of ``SERIES.COLUMN``"""
     file: str
     """the table's file, relative to the run folder (``post/restitution.csv``)"""
-    columns: list[str] = []
+    columns: Annotated[list[str], Says(what="a list of column names", item="a string")] = []
     """chooses columns or, for a table without a header, names them"""
 
 
@@ -50,7 +65,8 @@ class Plot(FileModel):
 class TextFile(FileModel):
     """A text file compared word by word with the reference run's (glossary: words)."""
 
-    file: str
+    model_config = {"extra": "allow"}
+    file: Annotated[str, Says(message="required (a string)")]
     """the file, relative to the run folder"""
     rtol: Number = 0.1
     """numbers match within max(rtol abs(ref), atol)"""
@@ -71,11 +87,12 @@ class Data(FileModel):
     A text file holding a numeric table with a header is also available to expectations under the file's stem
     (``restitution.e`` for ``restitution.txt``)."""
 
-    series: list[Series] = []
+    series: Annotated[list[Series], Says(what="a list", item="an object")] = []
     """tables the run writes (``name``, ``file`` required)"""
-    plots: list[Plot] = []
+    plots: Annotated[list[Plot], Says(what="a list", item="an object")] = []
     """plots of declared series (``xdata`` and ``ydata`` are ``SERIES.COLUMN``; title, labels, legend free)"""
-    textfiles: list[Union[str, TextFile]] = []
+    textfiles: Annotated[list[Union[str, TextFile]],
+                         Says(what="a list", item="a file name or an object with 'file'")] = []
     """files compared word by word: words must be equal, numbers within ``max(rtol abs(ref), atol)``"""
 
 
@@ -91,20 +108,22 @@ class Expectation(FileModel):
     An expectation not met fails the run (reason ``expectation``) with the value found and the bounds, e.g.
     ``expectation thermo.vz[1] (end) = 0.501701 outside 0.9 +/- 1 % [0.891, 0.909]``."""
 
+    says: ClassVar[Says] = Says(unknown="unknown field(s) {fields}", unknown_here=True)
     quantity: Quantity
     """``SERIES.COLUMN`` (``thermo.ke``, ``thermo.vz[1]``, ``restitution.e``) or a sum of such terms
     (``thermo.ke + thermo.rke``)"""
-    at: Literal[REDUCTIONS] = "end"
+    at: Annotated[Literal[REDUCTIONS], Says(bound="must be one of end, start, min, max, mean, got {value!r}")] \
+        = "end"
     """how the column becomes one number"""
-    value: Number | None = None
+    value: FiniteNumber | None = None
     """the expected number, with ``rel_tol`` and/or ``abs_tol`` (the larger of the two applies)"""
-    rel_tol: Annotated[Number, Field(ge=0)] | None = None
+    rel_tol: Tolerance | None = None
     """a fraction of abs(value)"""
-    abs_tol: Annotated[Number, Field(ge=0)] | None = None
+    abs_tol: Tolerance | None = None
     """same unit as the quantity"""
-    lower: Number | None = None
+    lower: FiniteNumber | None = None
     """a bound instead of ``value``"""
-    upper: Number | None = None
+    upper: FiniteNumber | None = None
     """a bound instead of ``value``"""
     name: str | None = None
     """how the result is named in reports (default: ``QUANTITY (AT)``)"""
@@ -115,25 +134,31 @@ class ParticleCount(FileModel):
 
     column: Quantity = "thermo.atoms"
     """the particle count"""
-    max_loss: Annotated[Number, Field(ge=0)] = 0
+    max_loss: Annotated[Number, Field(ge=0), Says(message="must be a number >= 0")] = 0
     """particles that may leave"""
 
 
 class Bounds(FileModel):
     quantity: Quantity
     """``SERIES.COLUMN`` or a sum of terms"""
-    rel_tol: Annotated[Number, Field(ge=0)] | None = None
+    rel_tol: Tolerance | None = None
     """a fraction of the quantity's scale"""
-    abs_tol: Annotated[Number, Field(ge=0)] | None = None
+    abs_tol: Tolerance | None = None
     """same unit as the quantity"""
-    upper: Number | None = None
+    upper: FiniteNumber | None = None
     """the largest value allowed"""
-    after: Number | None = None
+    after: Annotated[Number, Says(message="must be a number")] | None = None
     """skips the start (same unit as the series' first column, e.g. step)"""
 
 
+BLOWUP = ('must be false or {{"max_overlap": X}} with X > 0 (largest overlap / radius before the run counts '
+          'as blown up)')
+
+
 class Blowup(FileModel):
-    max_overlap: Annotated[Number, Field(gt=0)]
+    says: ClassVar[Says] = Says(unknown=BLOWUP.replace("{{", "{").replace("}}", "}"))
+
+    max_overlap: Annotated[Number, Field(gt=0), Says(message=BLOWUP)]
     """largest overlap / radius before the run counts as blown up (default 0.5)"""
 
 
@@ -153,9 +178,10 @@ class Stability(FileModel):
     default. ``"particle_count": false``, ``"finite": false`` or ``"blowup": false`` drops one default check,
     ``"stability": false`` drops them all."""
 
-    finite: bool = True
+    says: ClassVar[Says] = Says(unknown="unknown check (known: {known})")
+    finite: Annotated[bool, Says(message="must be true or false")] = True
     """no NaN or infinity in any series"""
-    particle_count: Union[Literal[False], ParticleCount] = ParticleCount()
+    particle_count: Annotated[Union[Literal[False], ParticleCount], Says(what="an object")] = ParticleCount()
     """particles that may leave (``max_loss``, an outlet)"""
     energy_never_grows: Bounds | None = None
     """for closed dissipative systems: no value exceeds the running minimum before it by more than
@@ -164,16 +190,16 @@ class Stability(FileModel):
     """for conservative systems: every value within ``rel_tol`` (or ``abs_tol``) of the first"""
     max_overlap: Bounds | None = None
     """``upper``: the largest overlap allowed, a fraction of the radius"""
-    blowup: Union[Literal[False], Blowup] = Blowup(max_overlap=0.5)
+    blowup: Annotated[Union[Literal[False], Blowup], Says(message=BLOWUP)] = Blowup(max_overlap=0.5)
     """a declared hard case relaxes the limit: ``{"max_overlap": 0.8}``"""
 
 
 class ErrorSpec(FileModel):
-    quantity: Annotated[str, Field(pattern=r"\.")]
+    quantity: Annotated[str, Field(pattern=r"\."), Says(message="must be SERIES.COLUMN, e.g. 'thermo.ke'")]
     """``SERIES.COLUMN``, e.g. ``thermo.ke``"""
-    at: Literal[REDUCTIONS] = "end"
+    at: Annotated[Literal[REDUCTIONS], Says(message="must be one of end, start, min, max, mean")] = "end"
     """how the column becomes one number"""
-    exact: Number | None = None
+    exact: Annotated[Number, Says(message="must be a number")] | None = None
     """the exact value; without it, the finest run's value"""
 
 
@@ -188,15 +214,19 @@ class Sweep(FileModel):
     q of the finest run) without ``exact``. ``harness sweep`` and the dashboard's "accuracy vs time" show error
     against run time and the observed order of convergence."""
 
-    variable: Annotated[str, Field(min_length=1)]
+    variable: Annotated[str, Field(min_length=1), Says(message="must be a variable name (passed as -var NAME VALUE)")]
     """the swept variable (passed as ``-var NAME VALUE``)"""
-    values: Annotated[list[Annotated[Number, Field(gt=0)]], Field(min_length=2)]
+    values: Annotated[list[Annotated[Number, Field(gt=0)]], Field(min_length=2), Says(
+        what="a list of at least two values", bound="must be a list of at least two values",
+        item="a number > 0 (the plot is log-log)", item_bound="must be a number > 0 (the plot is log-log)")]
     """at least two distinct values > 0 (the plot is log-log)"""
-    with_: dict[str, list[Scalar]] = Field({}, alias="with")
+    with_: Variables = Field({}, alias="with")
     """further variables that change together with the swept one, one value per sweep value"""
-    error: ErrorSpec
+    error: Annotated[ErrorSpec, Says(what="an object with quantity (SERIES.COLUMN) and optionally at, exact",
+                                     missing="must be an object with quantity (SERIES.COLUMN) and optionally at, "
+                                     "exact")]
     """the quantity whose error is measured"""
-    finest: Literal["min", "max"] = "min"
+    finest: Annotated[Literal["min", "max"], Says(message="must be 'min' or 'max'")] = "min"
     """``max`` when a larger value is finer (a particle count)"""
 
 
@@ -210,84 +240,94 @@ class Scaling(FileModel):
     MPI, threads for one that uses threads (the bundled engine, YADE). Not with a sweep, nor with type
     ``mpi/custom``. ``harness scaling`` shows speedup, efficiency and the Karp-Flatt serial fraction."""
 
-    cores: Annotated[list[Annotated[int, Field(ge=1)]], Field(min_length=2)]
+    cores: Annotated[list[Annotated[int, Field(ge=1)]], Field(min_length=2), Says(
+        message="must be a list of at least two core counts, e.g. [1, 2]",
+        item_bound="every core count must be an integer >= 1")]
     """at least two distinct core counts >= 1"""
-    kind: Literal[SCALING_KINDS] = "strong"
+    kind: Annotated[Literal[SCALING_KINDS], Says(message="must be one of strong, weak")] = "strong"
     """``weak``: the size grows with the cores (``with`` required)"""
-    with_: dict[str, list[Scalar]] = Field({}, alias="with")
+    with_: Variables = Field({}, alias="with")
     """further variables, one value per core count (``-var N 8000``)"""
 
 
 class Profile(FileModel):
-    call_graph: Literal[CALL_GRAPHS] = "dwarf"
+    call_graph: Annotated[Literal[CALL_GRAPHS], Says(message="must be one of dwarf, fp")] = "dwarf"
     """how perf records the call stacks"""
-    frequency: Annotated[int, Field(ge=1, le=20000)] = 249
+    frequency: Annotated[int, Field(ge=1, le=20000), Says(
+        message="must be an integer number of samples per second, 1 to 20000")] = 249
     """samples per second"""
 
 
 class QuantityConsistency(FileModel):
-    epsilon: Annotated[Number, Field(ge=0)] | None = None
+    epsilon: NonNegative | None = None
     """replaces eq. 4.2; same unit as the quantity"""
-    floor: Annotated[Number, Field(ge=0)] | None = None
+    floor: NonNegative | None = None
     """the smallest eps"""
-    rtol: Annotated[Number, Field(ge=0)] | None = None
+    rtol: NonNegative | None = None
     """text files: relative tolerance of numbers"""
-    atol: Annotated[Number, Field(ge=0)] | None = None
+    atol: NonNegative | None = None
     """text files: absolute tolerance of numbers"""
     ignore: bool = False
     """leave the quantity out"""
 
 
 class Vtk(FileModel):
-    density: Annotated[Number, Field(gt=0)]
+    density: Annotated[Number, Field(gt=0), Says(what="a number (kg/m^3)", bound="must be positive")] | None = None
     """kg/m^3: the density for the kinetic energy of VTK dumps"""
 
 
-class RunEntry(FileModel):
+class RunConfigEntry(FileModel):
     """A run configuration. A problem in one makes it fail (reason ``config``) while the others run."""
 
-    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_][A-Za-z0-9_.,:=@+\-]*$", max_length=200)]
+    name: Annotated[str, Field(json_schema_extra={"pattern": SAFE_NAME, "maxLength": 200})]
     """unique in the file; a safe name (letters, digits, ``_ . , : = @ + -``): it names the run's folder"""
-    script: Union[str, dict[str, str]]
+    script: Annotated[Union[str, dict[str, str]], Says(what="a file name or an object per engine adapter",
+                                                       item="a file name")]
     """the input script, a file of the test case folder; or one per engine adapter, ``{"dem": "scene.json",
     "liggghts": "in.scene"}`` (a target whose adapter has no entry does not run it)"""
     description: str | None = None
     """free text"""
-    type: Literal[RUN_TYPES] = "serial"
+    type: Annotated[Literal[RUN_TYPES], Says(bound="unknown run type {value!r} (known: {known})")] = "serial"
     """``serial``, ``mpi`` with ``nprocs``, or ``mpi/custom`` with ``mpi_options``"""
-    nprocs: Annotated[int, Field(ge=1)] | None = None
+    nprocs: Annotated[int, Field(ge=1), Says(bound="must be at least 1")] | None = None
     """MPI ranks of a run of type ``mpi``"""
-    mpi_options: Union[str, list[str]] | None = None
+    mpi_options: Annotated[Union[str, list[str]], Says(what="a string or a list of strings", item="a string")] \
+        | None = None
     """added to the launcher of a run of type ``mpi/custom`` (a string split like a shell, or a list)"""
-    variables: dict[str, Scalar] = {}
+    variables: Annotated[dict[str, Scalar], Says(what="an object", item="a string or number")] = {}
     """``{"NAME": value}``: passed to the engine as ``-var NAME VALUE`` (``${NAME}`` in a bundled-engine scene)"""
-    depends_on: str | None = None
+    depends_on: Annotated[str, Says(what="a run name")] | None = None
     """a run of the same folder that runs first; its ``post/`` folder is copied into this run's folder (a
     restart file, a settled bed)"""
-    post_scripts: list[str] = []
+    post_scripts: Annotated[list[str], Says(what="a list of file names", item="a file name")] = []
     """executables of the test case folder (with a shebang), run in order in the run folder after the engine"""
     data: Data | None = None
     """what to read besides thermo: ``series``, ``plots``, ``textfiles``"""
-    timeout: Annotated[Number, Field(gt=0)] = DEFAULT_TIMEOUT
+    timeout: Annotated[Number, Field(gt=0), Says(what="a number of seconds", bound="must be positive")] \
+        = DEFAULT_TIMEOUT
     """seconds before the run is stopped and recorded as failed (reason ``timeout``)"""
-    thermo_columns: dict[str, str] = {}
+    thermo_columns: Annotated[dict[str, str], Says(what="an object", item="a column name (string)")] = {}
     """``{"ke": "KinEng"}``: which of the engine's thermo columns are the harness' step, atoms, ke, rke"""
-    consistency: dict[str, QuantityConsistency] = {}
+    consistency: Annotated[dict[str, QuantityConsistency],
+                           Says(what="an object", item="an object with epsilon and/or floor")] = {}
     """per quantity (``ke``, ``SERIES:QUANTITY``, a series or text file name, or ``*`` for every quantity), how
     it is scored against the reference run. By default every quantity of thermo, series and plots except the
     abscissa is scored with ``eps = 0.1 (max - min) / 2`` of the reference, at least a floor of 1e-6 x the
     largest abs reference value; the thermo columns ``step`` and ``time`` are axes, scored only when named"""
     vtk: Vtk | None = None
     """``{"density": 2500}``"""
-    expectations: list[Expectation] = []
+    expectations: Annotated[list[Expectation], Says(what="a list of objects", item="an object")] = []
     """statements about quantities that must hold"""
-    stability: Union[Literal[False], Stability] = Stability()
+    stability: Annotated[Union[Literal[False], Stability],
+                         Says(what="an object (or false: no default checks)")] = Stability()
     """numerical checks of hard cases (``false``: none)"""
-    sweep: Sweep | None = None
+    sweep: Annotated[Sweep, Says(what="an object with variable, values and error")] | None = None
     """one run per value of a variable, to see what accuracy costs in time"""
-    scaling: Scaling | None = None
+    scaling: Annotated[Scaling, Says(
+        what="an object with cores (a list of core counts) and optionally kind and with")] | None = None
     """one run per core count: a strong or weak scaling study"""
-    profile: Union[bool, Profile] = False
+    profile: Annotated[Union[bool, Profile], Says(
+        what="true, false or an object with call_graph (dwarf, fp) and frequency (Hz)")] = False
     """profile a native code with perf (``true``, or ``{"call_graph": "fp", "frequency": 999}``)"""
     sweep_point: dict | None = None
     """set by discovery on the runs a sweep expands into; not written by hand"""
@@ -316,7 +356,7 @@ class RunConfig(FileModel):
     one serial run per ``in.*`` script). Folders named ``post``, ``restart``, ``meshes``, ``scripts``,
     ``__pycache__`` are parts of a test case, never test cases themselves."""
 
-    runs: list[RunEntry]
+    runs: Annotated[list[RunConfigEntry], Says(what="a list of run configurations", item="a run configuration object")]
     """the run configurations"""
     description: str | None = None
     """what the test case shows, and where the numbers come from"""
