@@ -201,29 +201,3 @@ class Problems:
     def raise_if_any(self) -> None:
         if self.found:
             raise UserError("; ".join(self.messages))
-
-
-def expect_type(problems: Problems, where: str, value, types, what: str) -> bool:
-    """Record a problem unless ``value`` is an instance of ``types`` (bool is never a number here).
-
-    A ``NonFinite`` marker is never of the right type, also where a string would do; it is reported once,
-    by ``non_finite_problems``, so no second message is added here.
-    """
-    if isinstance(value, NonFinite):
-        return False
-    ok = isinstance(value, types) and not (isinstance(value, bool) and bool not in _as_tuple(types))
-    if not ok:
-        problems.add(where, f"must be {what}, got {_describe(value)}")
-    return ok
-
-
-def _describe(value) -> str:
-    """``string "ten"``, ``list ["a"]``, ``true``, ``null``: the JSON kind and (the start of) the value."""
-    text = json.dumps(value)
-    text = text if len(text) <= 60 else text[:57] + "..."
-    kind = {dict: "object", list: "list", str: "string", int: "integer", float: "number"}.get(type(value))
-    return f"{kind} {text}" if kind else text
-
-
-def _as_tuple(types):
-    return types if isinstance(types, tuple) else (types,)
