@@ -68,27 +68,28 @@ def perf_command(command: list[str], options: dict | None = None, output: str = 
              "-o", output, "--"] + list(command))
 
 
-def enable(spec: dict, adapter, value) -> None:
+def enable(spec, adapter, value) -> None:
     """Make the run ``spec`` (``harness.runner.make_spec``) a profiled run: its command under perf for a native
     code, its phase timers for the bundled engine (``EngineAdapter.profiler``)."""
     options = settings(value if value not in (None, False) else True)
-    spec["profile"] = {"profiler": adapter.profiler, **options}
+    spec.profile = {"profiler": adapter.profiler, **options}
     if adapter.profiler == "perf":
         problem = perf_available()
         if problem:  # the run runs unprofiled and says why (finish), rather than failing to start
-            spec["profile"]["problem"] = problem
-        elif spec.get("command"):
-            spec["command"] = perf_command(spec["command"], options)
+            spec.profile["problem"] = problem
+        elif spec.command:
+            spec.command = perf_command(spec.command, options)
 
 
-def finish(spec: dict, folder: Path, record: dict) -> None:
-    """After a profiled run: its folded stacks in ``profile.folded`` and ``record["profile"]`` naming them.
+def finish(spec, folder: Path, record) -> None:
+    """After a profiled run (``spec``, a ``RunSpec``): its folded stacks in ``profile.folded`` and the
+    ``RunRecord``'s ``profile`` naming them.
     A profile that cannot be made is a warning of the run, never its failure."""
-    how = (spec.get("profile") or {}).get("profiler")
+    how = (spec.profile or {}).get("profiler")
     if not how:
         return
-    if spec["profile"].get("problem"):
-        record.setdefault("warnings", []).append(f"WARNING: no profile: {spec['profile']['problem']}")
+    if spec.profile.get("problem"):
+        record.warnings.append(f"WARNING: no profile: {spec.profile['problem']}")
         return
     try:
         if how == "perf":
@@ -96,13 +97,13 @@ def finish(spec: dict, folder: Path, record: dict) -> None:
                 raise RuntimeError("perf wrote no perf.data")
             stacks = fold_perf_data(Path(folder))
         else:
-            stacks = phase_stacks(record.get("breakdown") or {})
+            stacks = phase_stacks(record.breakdown)
         if not stacks:
             raise RuntimeError("no samples")
         write_folded(Path(folder) / FOLDED_FILE, stacks)
-        record["profile"] = FOLDED_FILE
+        record.profile = FOLDED_FILE
     except (OSError, RuntimeError, subprocess.SubprocessError) as exc:
-        record.setdefault("warnings", []).append(f"WARNING: no profile: {exc}")
+        record.warnings.append(f"WARNING: no profile: {exc}")
 
 
 def _frame_name(symbol: str, dso: str) -> str:

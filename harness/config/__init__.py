@@ -2,7 +2,7 @@
 definition files and run records (``run.json``).
 
 Each file kind is a pydantic model (``runconfig.RunConfig``, ``target.Target``, ``adapter.AdapterFile``,
-``record.RunRecordFile``): its fields, their types, bounds, choices, defaults and descriptions are written once
+``record.RunRecord``): its fields, their types, bounds, choices, defaults and descriptions are written once
 there. From the models come
 
 - the JSON Schema of each kind (``export.json_schema``, printed by ``harness schema KIND``), so that an editor

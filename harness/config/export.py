@@ -11,13 +11,13 @@ from pydantic import BaseModel
 from pydantic.json_schema import GenerateJsonSchema
 
 from harness.config.adapter import AdapterFile
-from harness.config.record import RunRecordFile
+from harness.config.record import RunRecord
 from harness.config.runconfig import RunConfig, RunConfigEntry
 from harness.config.target import Target
 
 #: the file kinds ``harness schema`` knows, by the name a user types
 KINDS: dict[str, type[BaseModel]] = {"run.config": RunConfig, "target": Target, "adapter": AdapterFile,
-                                     "record": RunRecordFile}
+                                     "record": RunRecord}
 _TITLES = {"run.config": "run.config of a test case", "target": "target definition (targets/NAME.json)",
            "adapter": "generic adapter definition file", "record": "run record (run.json)"}
 

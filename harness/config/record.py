@@ -2,11 +2,12 @@
 (``harness import``) is validated against it; fields a newer harness adds are kept, not refused."""
 from __future__ import annotations
 
-from typing import Literal, Union
+from typing import Annotated, Literal, Union
 
-from pydantic import Field
+from pydantic import ConfigDict, Field
 
-from harness.config.base import FileModel, OpenModel
+from harness.config.base import OpenModel
+from harness.config.check import Says
 
 #: version of the record layout; 1: before test case hashes; 2: ``testcase_hash`` and strict JSON
 RECORD_VERSION = 2
@@ -17,20 +18,24 @@ FAILURE_REASONS = ("", "exit_code", "signal", "timeout", "non_finite", "missing_
 SERIES_KINDS = ("thermo", "plot", "vtk", "textfile")
 
 
-class SeriesRecord(OpenModel):
-    kind: Literal[SERIES_KINDS]
-    """what the series was read from"""
-    name: str = Field(min_length=1)
-    """``thermo``, a declared series, plot or text file"""
-    columns: dict[str, list[Union[int, float, str, None]]] = {}
-    """equal-length columns; null where a value was not finite"""
+#: the JSON Schema of one series (``harness.postprocess.frame_to_series``); the record holds series as plain
+#: objects, their rules are checked by ``harness.runrecord.validate``
+SERIES_SCHEMA = {"type": "object", "required": ["kind", "name"], "properties": {
+    "kind": {"enum": list(SERIES_KINDS)}, "name": {"type": "string", "minLength": 1},
+    "x_column": {"type": "string"}, "columns": {"type": "object", "additionalProperties": {
+        "type": "array", "items": {"type": ["number", "string", "null"]}}}}}
 
 
-class RunRecordFile(OpenModel):
+class RunRecord(OpenModel):
     """One run. Times are ISO 8601 (UTC); ``wall_time`` in s (the engine process, start-up and JIT compilation
     included); ``stepping_time`` in s (the engine's own loop time); ``timing`` in s per category (pair, neigh,
     comm, modify, output, other, total, and what the engine adds); ``breakdown`` the same in the harness'
-    sections with min/avg/max over ranks; ``profile`` the folded-stacks file of a profiled run."""
+    sections with min/avg/max over ranks; ``profile`` the folded-stacks file of a profiled run.
+
+    ``harness.execute`` fills one while it runs a run (``fail`` when it fails), ``harness.records`` stores it;
+    a record read back is validated against this model (fields a newer harness adds are kept)."""
+
+    model_config = ConfigDict(frozen=False)
 
     machine: str
     """machine the run ran on"""
@@ -40,7 +45,7 @@ class RunRecordFile(OpenModel):
     """test case path, e.g. ``testcases/settling``"""
     run: str
     """run name"""
-    state: Literal[STATES]
+    state: Annotated[Literal[STATES], Says(bound="unknown state {value!r} (known: {known})")] = "not_executed"
     """run state"""
     testcase_hash: str = ""
     """sha256 of the run as it ran (its configuration and files)"""
@@ -56,7 +61,7 @@ class RunRecordFile(OpenModel):
     """the engine's command line"""
     adapter: str = ""
     """the engine adapter"""
-    failure_reason: Literal[FAILURE_REASONS] = ""
+    failure_reason: Annotated[Literal[FAILURE_REASONS], Says(bound="unknown reason {value!r}")] = ""
     """why a failed run failed"""
     failure_message: str = ""
     """one line saying why"""
@@ -80,7 +85,7 @@ class RunRecordFile(OpenModel):
     """warning lines of the engine"""
     warnings: list = []
     """the first warning lines"""
-    series: list[SeriesRecord] = []
+    series: list[dict] = Field([], json_schema_extra={"items": SERIES_SCHEMA})
     """post-processed series"""
     verdicts: list = []
     """acceptance verdicts"""
@@ -90,3 +95,16 @@ class RunRecordFile(OpenModel):
     """the end of its stderr"""
     version: int = RECORD_VERSION
     """record layout version"""
+
+    def fail(self, reason: str, message: str) -> "RunRecord":
+        """This record, failed for ``reason`` (one of ``FAILURE_REASONS``) with a one-line ``message``."""
+        self.state, self.failure_reason, self.failure_message = "failed", reason, message
+        return self
+
+    @property
+    def failed(self) -> bool:
+        return self.state == "failed"
+
+    def to_dict(self) -> dict:
+        """The record as ``run.json`` holds it (fields in declaration order, then those of a newer harness)."""
+        return self.model_dump(by_alias=True)
