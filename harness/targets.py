@@ -1,72 +1,11 @@
 """Target definitions: ``targets/NAME.json`` after the thesis' listings 4.1 and 4.10.
 
-A target is a named build of a DEM code at a git revision. Fields (all optional unless stated):
-
-``repository``
-    path or URL of the git repository; relative paths are relative to the folder holding the ``targets/``
-    folder (the project checkout). Default: the repository the target file is in (this project's).
-``revision``
-    tag, branch, commit or ``HEAD`` (default ``HEAD``); GitPython resolves it to a commit.
-``recipe``
-    how to build: ``dem`` (the bundled engine, ``engine/`` exported at the commit), ``make``
-    (``make <make_target>`` in ``source_folder``), ``cmake`` (configure ``source_folder`` into a build folder
-    and build it) or ``system`` (an installed ``executable``). Inferred from ``make_target`` / ``executable``
-    when absent, else ``dem``.
-``source_folder``
-    folder inside the repository that is built (``dem``: default ``engine``; ``make``: default ``.``;
-    ``cmake``: the folder holding ``CMakeLists.txt``, default ``.``).
-``make_target``, ``make_variables``, ``generated_executable``
-    for ``make``: ``make <make_target> NAME=VALUE...``; the program it leaves in ``source_folder``. For
-    ``cmake``, ``generated_executable`` is the program's path in the build folder.
-``configure``
-    for ``make``: shell commands run in ``source_folder`` before ``make`` (e.g. ``make stubs``).
-``cmake_options``, ``build_type``, ``build_targets``
-    for ``cmake``: ``-DNAME=VALUE`` options (an object), ``CMAKE_BUILD_TYPE`` (default ``Release``) and the
-    targets ``cmake --build`` builds (default: all).
-``prebuild``, ``postbuild``
-    shell commands run in the exported tree before the build starts and after it succeeded.
-``env``
-    environment variables of every build command (e.g. ``{"CXXFLAGS": "-O2"}``).
-``jobs``
-    parallel compile jobs (default: the machine's cores; ``harness build -j N`` overrides it).
-``ccache``
-    compile through ccache with its cache in the workspace (``<workspace>/ccache``), so that a commit next to
-    a built one compiles only what changed; default true when ``ccache`` is installed.
-``export``
-    folders taken from the commit (default: ``source_folder``; ``["."]`` for the whole tree).
-``requires``
-    what the build needs, checked before anything starts: a string names an executable (and the Debian
-    package of the same name), an object ``{"executable": ..., "package": ...}`` or ``{"package": ...}``.
-``patches``
-    per range of commits: ``{"from": REV, "before": REV, "files": [...], "env": {...}, "cmake_options":
-    {...}}``. An entry applies to a commit that descends from ``from`` (or is it) and does not descend from
-    ``before`` (both optional); its patch files (relative to the targets folder, applied with ``-p1`` to
-    the exported tree) are applied in order and its ``env`` / ``cmake_options`` added. The patch files'
-    content is part of the definition hash.
-``on_demand``
-    true: the target is built, run and checked only when named on the command line (a cold build costs
-    minutes); ``harness build`` without names skips it.
-``executable``
-    for ``system``: an absolute path or a name looked up on PATH (e.g. ``/usr/bin/liggghts``).
-``engine``
-    the engine adapter (``dem``, ``liggghts``); default ``dem``.
-``testcases``
-    list of test case folders, relative to the test case repository root, or absolute folders (read as they
-    are, no git); default ``["testcases"]``.
-``testcases_repository``
-    default: ``repository`` (the project's own repository for ``system`` targets).
-``testcases_revision``
-    revision the test cases are exported at; ``working-tree`` reads the checkout as it is. Default: the
-    target's ``revision``, or ``working-tree`` when that is ``HEAD``.
-``reference``
-    name of the target this one is compared against (thesis listing 4.10).
-``thermo_columns``
-    mapping of the harness' thermo names onto the engine's column names, e.g. ``{"ke": "KinEng"}``.
-``mpi_launcher``
-    launcher prefix for mpi runs (default ``["mpirun"]``), a non-empty list of strings.
-``commit_url``
-    the repository's web view of one commit, with ``{commit}`` where the commit goes, e.g.
-    ``"https://github.com/CFDEMproject/LIGGGHTS-PUBLIC/commit/{commit}"``; the dashboard links commits there.
+A target is a named build of a DEM code at a git revision. Its fields (repository, revision, recipe and the
+recipes' fields, engine, test case folders, reference, ...) are declared once, with their defaults and
+meaning, in ``harness.config.target.Target`` (``harness schema target`` prints them as JSON Schema;
+harness/README.md has a table). Here they are checked against that schema and what it cannot say (which
+recipe requires or takes which field, folders inside the repository, patch files that exist, a reference
+that is a name and not the target itself), and read into a ``TargetDefinition`` with its defaults filled in.
 
 The target's name is its file name without ``.json``; it names folders in the workspace, so it must be a
 safe single path segment (``harness.workspace.segment_problem``), as must ``reference`` and every part of

@@ -1,16 +1,11 @@
 """Test cases (thesis 4.3.1-4.3.3): folders with a run.config, found under a target's test case folders.
 
-A run.config holds ``{"runs": [...]}``; each run configuration has
-
-``name`` (required, unique), ``type`` (``serial`` | ``mpi`` with ``nprocs`` | ``mpi/custom`` with
-``mpi_options``), ``script`` (a file in the folder, or ``{"dem": "scene.json", "liggghts": "in.scene"}``
-chosen by the target's adapter; a run whose script names no file for the adapter is not run by that
-target), ``variables`` (passed as ``-var NAME VALUE``), ``depends_on`` (a run of the same folder that runs
-first; its ``post/`` is copied in), ``post_scripts`` (executables with a shebang, run in order in the run
-folder), ``data`` (``series``, ``plots``, ``textfiles``, thesis listing 4.11), ``timeout`` (s, default
-600), ``thermo_columns`` (mapping onto step, atoms, ke, rke), ``consistency`` (per quantity ``epsilon``
-and/or ``floor``, same units as the quantity), ``vtk`` (``{"density": kg/m^3}`` for the kinetic energy
-of dumps), and the acceptance keys ``expectations`` / ``stability`` (checked by ``harness.acceptance``).
+A run.config holds ``{"runs": [...]}``; the fields of a run configuration (name, type, script, variables,
+depends_on, post_scripts, data, timeout, thermo_columns, consistency, vtk, expectations, stability, sweep,
+scaling, profile) are declared once in ``harness.config.runconfig`` (docs/run-config.md is generated from
+it). Here each entry is checked against that schema and what it cannot say (a script or post script that
+is a file of the folder, the fields a run type needs, plot references, dependencies and duplicate names
+between entries), and a sweep or scaling study expands into ordinary runs.
 
 A folder without run.config may still be a test case if the adapter supplies a default configuration
 (``EngineAdapter.default_run_config``, e.g. one serial run per LIGGGHTS ``in.*`` script).
@@ -18,8 +13,9 @@ A folder without run.config may still be a test case if the adapter supplies a d
 Names become folders of the workspace, so run names and test case folder names must be safe single path
 segments (``harness.workspace.segment_problem``); folders with a reserved name (post, restart, meshes,
 scripts, __pycache__) are parts of a test case and never test cases themselves (a run.config in one is
-reported, not silently ignored). Validation never raises for a broken entry: it carries its problems, each
-``FILE: $.runs[i].field: what is wrong``, and is recorded as failed (reason config) while the rest runs.
+reported, not silently ignored). Validation never raises for a broken entry: it carries its problems
+(``harness.jsonfile.Problem``: JSON path and message, shown as ``FILE: $.runs[i].field: what is wrong``),
+and is recorded as failed (reason config) while the rest runs.
 """
 from __future__ import annotations
 
