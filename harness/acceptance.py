@@ -44,7 +44,6 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.config.runconfig import REDUCTIONS
 from harness.jsonfile import Problem
 
 #: the largest overlap / radius a run may reach before it counts as blown up (engine/blowup.py's default, and

@@ -3,7 +3,7 @@
 A profiled run (``harness run --profile``, or ``"profile": true`` in its run.config entry) of a native code is
 started under ``perf record -g`` (Linux perf: samples of the call stack, by default 249 per second, of the code
 and every process it starts, so all MPI ranks under ``mpirun``; callers found by DWARF unwinding, see
-``CALL_GRAPHS``); afterwards ``perf script`` prints the samples
+``harness.config.runconfig.CALL_GRAPHS``); afterwards ``perf script`` prints the samples
 and :func:`fold_perf_script` folds them into the *folded stacks* format of Brendan Gregg's flame graphs, one
 line per distinct stack, root first, with its sample count::
 
@@ -27,13 +27,10 @@ import subprocess
 from collections import Counter
 from pathlib import Path
 
-from harness.config.runconfig import CALL_GRAPHS
+from harness.config.runconfig import PERF_FREQUENCY
 
 FOLDED_FILE = "profile.folded"
 PERF_DATA = "perf.data"
-#: samples per second per thread: enough for runs of seconds; a DWARF sample copies 8 kB of stack, so this
-#: bounds perf.data to about 2 MB per second and rank
-PERF_FREQUENCY = 249
 DEFAULT_SETTINGS = {"call_graph": "dwarf", "frequency": PERF_FREQUENCY}
 
 

@@ -30,7 +30,6 @@ import copy
 import math
 from dataclasses import dataclass, field
 
-from harness.config.runconfig import SCALING_KINDS as KINDS
 from harness.jsonfile import Problem
 
 SEPARATOR = "@"

@@ -19,6 +19,9 @@ SCALING_KINDS = ("strong", "weak")
 #: built without frame pointers (Debian's liggghts and lmp); "fp" (perf record -g's default) is cheaper but needs
 #: a code compiled with -fno-omit-frame-pointer, else most stacks end after one frame
 CALL_GRAPHS = ("dwarf", "fp")
+#: samples per second per thread: enough for runs of seconds; a DWARF sample copies 8 kB of stack, so this
+#: bounds perf.data to about 2 MB per second and rank
+PERF_FREQUENCY = 249
 #: a safe single path segment (``harness.workspace.segment_problem`` says why a name is not one)
 SAFE_NAME = r"^[A-Za-z0-9_][A-Za-z0-9_.,:=@+\-]*$"
 DEFAULT_TIMEOUT = 600.0
@@ -254,7 +257,7 @@ class Profile(FileModel):
     call_graph: Annotated[Literal[CALL_GRAPHS], Says(message="must be one of dwarf, fp")] = "dwarf"
     """how perf records the call stacks"""
     frequency: Annotated[int, Field(ge=1, le=20000), Says(
-        message="must be an integer number of samples per second, 1 to 20000")] = 249
+        message="must be an integer number of samples per second, 1 to 20000")] = PERF_FREQUENCY
     """samples per second"""
 
 

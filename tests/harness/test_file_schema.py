@@ -72,3 +72,41 @@ def test_harness_schema_prints_each_kind():
     bad = subprocess.run([sys.executable, "-m", "harness.cli", "schema", "target", "--markdown"],
                          capture_output=True, text=True, cwd=ROOT)
     assert bad.returncode != 0 and "only for run.config" in bad.stderr and "\n" == bad.stderr[-1]
+
+
+def test_problems_are_values_with_a_json_path(tmp_path):
+    """Each problem is a (JSON path, message) value; what is left out of a broken entry, and which name it
+    is recorded under, follow from the paths, never from the text of a message."""
+    from harness.jsonfile import Problem
+    from harness.testcases import parse_run_config
+
+    (tmp_path / "scene.json").write_text("[]")
+    path = tmp_path / "run.config"
+    data = {"runs": [{"name": "ok", "script": "scene.json", "timeout": 5},
+                     {"name": "bad", "script": "scene.json", "timeout": "ten", "variables": {"X": None},
+                      "vtk": {"density": 2500}},
+                     {"name": "a b", "script": "scene.json"}]}
+    entries, _ = parse_run_config(data, path, "dem")
+    ok, bad, unnamed = entries
+    assert ok.found == [] and ok.spec.timeout == 5.0 and ok.timeout == 5.0
+    assert bad.found == [Problem(("runs", 1, "variables", "X"), "must be a string or number, got null"),
+                         Problem(("runs", 1, "timeout"), 'must be a number of seconds, got string "ten"')]
+    assert bad.spec is None and set(bad.config) == {"name", "script", "vtk"}   # the broken fields left out
+    assert bad.problems[1] == f'{path}: $.runs[1].timeout: must be a number of seconds, got string "ten"'
+    assert unnamed.name == "runs[2]" and unnamed.found[0].path == ("runs", 2, "name")
+
+
+def test_run_spec_and_record_survive_pickling_as_dask_ships_them():
+    import pickle
+
+    from harness.runrecord import RunRecord, RunSpec
+
+    spec = RunSpec(machine="m", target="t", target_definition={}, build={"commit": "c"}, testcase="cases/a",
+                   run="r", testcase_hash="h", config={"name": "r"}, adapter="dem", thermo_columns={},
+                   environment={}, workspace="/w", folder="/w/r", source_folder="/c", files=["scene.json"],
+                   timeout=5.0, command=["dem", "scene.json"])
+    assert pickle.loads(pickle.dumps(spec)) == spec
+    record = spec.record().fail("timeout", "timed out after 5 s")
+    again = pickle.loads(pickle.dumps(record))
+    assert again == record and again.failed and again.to_dict()["failure_reason"] == "timeout"
+    assert list(again.to_dict())[:5] == ["machine", "target", "testcase", "run", "state"]
