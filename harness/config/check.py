@@ -91,6 +91,8 @@ def _data_path(data, error) -> tuple[Path, bool]:
 
 
 def _problems_at(model, path: Path, errors: list, deeper: bool, at: Path) -> list[Problem]:
+    """The problems of the value at ``path`` from pydantic's ``errors`` there (pairs of the error and whether
+    it is one union branch's); ``deeper``: there are errors below ``path`` too."""
     if deeper or any(not _is_type_error(error) for error, _t in errors):
         # a branch of a union took the kind of value; its own errors (below, or of a bound) say what is wrong
         errors = [(error, tagged) for error, tagged in errors if not (tagged and _is_type_error(error))]
@@ -118,6 +120,7 @@ def _unknown(model, parent: Path, fields: list, at: Path) -> list[Problem]:
 
 
 def _is_type_error(error) -> bool:
+    """The value is of the wrong JSON kind (also: not the ``false`` a ``false or {...}`` field takes)."""
     return error["type"].endswith("_type") or error["type"] == "literal_error" and error["input"] is not False \
         and "False" in str((error.get("ctx") or {}).get("expected"))
 
