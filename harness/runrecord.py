@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from datetime import datetime
 
 from harness.config import check
-from harness.config.record import (FAILURE_REASONS, RECORD_VERSION, SERIES_KINDS, STATES,  # noqa: F401 - their home
+from harness.config.record import (FAILURE_REASONS, RECORD_VERSION, SERIES_KINDS, STATES,  # noqa: F401 - read from here too
                                    RunRecord)
 from harness.config.runconfig import DEFAULT_TIMEOUT
 from harness.jsonfile import Problem

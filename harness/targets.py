@@ -22,7 +22,7 @@ from pathlib import Path, PurePosixPath
 
 from harness.adapters.base import UserError
 from harness.config import check
-from harness.config.target import RECIPES, WORKING_TREE, Target  # noqa: F401 - RECIPES: the recipes' one home
+from harness.config.target import WORKING_TREE, Target
 from harness.jsonfile import Problem, Problems, load_json, non_finite_problems
 from harness.workspace import PROJECT_ROOT, segment_problem
 
