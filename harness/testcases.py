@@ -405,7 +405,7 @@ def _items(runs: list, folder: Path, adapter_name: str) -> list[_Item]:
             p.path[2:3] in (("name",), ("variables",), ("sweep",), ("scaling",)) for p in problems)
         for point in sweep.expand(entry) if expandable else [entry]:
             for scaled in scaling.expand(point, parallelism) if expandable else [point]:
-                point_typed = typed if scaled is entry or problems else RunConfigEntry.model_validate(scaled)
+                point_typed = typed if scaled is entry or problems else check.validate(RunConfigEntry, scaled)[0]
                 items.append(_Item(i, scaled, problems, script, point_typed))
     return items
 
