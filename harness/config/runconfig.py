@@ -262,6 +262,20 @@ class Profile(FileModel):
 
 
 class QuantityConsistency(FileModel):
+    """How one quantity is scored against the reference run (glossary: C, eps, band)::
+
+        "consistency": {
+          "ke": {"epsilon": 1e-6},
+          "thermo:atoms": {"floor": 0.5},
+          "time": {},
+          "post/summary.txt": {"rtol": 0.01},
+          "cpu_load": {"ignore": true},
+          "*": {"floor": 1e-9}
+        }
+
+    Keys are a quantity (``ke``), ``SERIES:QUANTITY``, a series or text file name, or ``*`` for every
+    quantity; ``harness.consistency`` computes the score."""
+
     epsilon: NonNegative | None = None
     """replaces eq. 4.2; same unit as the quantity"""
     floor: NonNegative | None = None
