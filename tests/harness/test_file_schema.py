@@ -64,6 +64,13 @@ def test_docs_run_config_is_the_generated_reference():
     assert (ROOT / "docs" / "run-config.md").read_text() == markdown()
 
 
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_the_committed_schemas_are_the_exported_ones(kind):
+    """docs/schemas/KIND.json, for editors to point at without running the harness, is what
+    ``harness schema KIND`` prints (regenerate with ``harness schema KIND > docs/schemas/KIND.json``)."""
+    assert json.loads((ROOT / "docs" / "schemas" / f"{kind}.json").read_text()) == json_schema(kind)
+
+
 def test_harness_schema_prints_each_kind():
     for kind in KINDS:
         out = subprocess.run([sys.executable, "-m", "harness.cli", "schema", kind], capture_output=True,
