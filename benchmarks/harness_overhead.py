@@ -60,8 +60,8 @@ def main(runs: int = 50):
     start = time.perf_counter()
     execute_tasks(tasks, RunOptions(machine="bench"), report, out=devnull)
     total = time.perf_counter() - start
-    engine_time = sum(r["wall_time"] for r in report.records)
-    assert all(r["state"] == "post_processed" for r in report.records), report.records[0]["failure_message"]
+    engine_time = sum(r.wall_time for r in report.records)
+    assert all(r.state == "post_processed" for r in report.records), report.records[0].failure_message
     print(f"{runs} runs, 1,000 thermo rows each, 1 job")
     print(f"store set-up, build and discovery (once):   {setup:.3f} s")
     print(f"harness wall time for the runs:             {total:.3f} s")

@@ -39,89 +39,50 @@ import re
 from pathlib import Path
 
 from harness.adapters.base import EngineAdapter, LogScan, UserError
-
-TIMING_KEYS = ("pair", "neigh", "comm", "modify", "output", "other", "total")
-KNOWN = {"description", "command", "variable", "log", "scripts", "thermo", "timing", "errors", "warnings", "vtk"}
-THERMO_KNOWN = {"csv", "delimiter", "log_pattern", "file", "columns"}
-
-
-def _strings(problems, where: str, value, what: str = "a list of strings") -> bool:
-    from harness.config.jsonfile import expect_type
-
-    if not expect_type(problems, where, value, list, what):
-        return False
-    ok = True
-    for i, item in enumerate(value):
-        ok &= expect_type(problems, f"{where}[{i}]", item, str, "a string")
-    return ok
-
-
-def _regex(problems, where: str, value) -> None:
-    from harness.config.jsonfile import expect_type
-
-    if expect_type(problems, where, value, str, "a regular expression (string)"):
-        try:
-            re.compile(value)
-        except re.error as exc:
-            problems.add(where, f"not a regular expression ({exc})")
-
+from harness.config import check
+from harness.config.adapter import TIMING_KEYS, AdapterFile
+from harness.config.jsonfile import Problems
 
 def validate(data, path: Path) -> None:
-    """Raise a UserError listing every problem of a generic adapter file (``$.json.path: what``)."""
-    from harness.config.jsonfile import Problems, expect_type, json_path
-
+    """Raise a UserError listing every problem of a generic adapter file (``$.json.path: what``): the
+    schema's (``harness.config.adapter``) and the regular expressions that do not compile or lack a group."""
     problems = Problems(path)
     if not isinstance(data, dict):
-        problems.add("$", "a generic adapter file must be a JSON object")
+        problems.add((), "a generic adapter file must be a JSON object")
         problems.raise_if_any()
-    for key in sorted(set(data) - KNOWN):
-        problems.add(json_path(key), f"unknown field (known: {', '.join(sorted(KNOWN))})")
-    if "command" not in data:
-        problems.add(json_path("command"), "required: the command line, e.g. [\"{executable}\", \"{script}\"]")
-    elif _strings(problems, json_path("command"), data["command"]) and "{script}" not in " ".join(data["command"]):
-        problems.add(json_path("command"), "must contain {script}")
-    if "variable" in data:
-        _strings(problems, json_path("variable"), data["variable"])
-    for key in ("log", "description"):
-        if key in data:
-            expect_type(problems, json_path(key), data[key], str, "a string")
-    for key in ("scripts", "vtk"):
-        if key in data:
-            _strings(problems, json_path(key), data[key], "a list of glob patterns")
-    for key in ("errors", "warnings"):
-        if key in data and _strings(problems, json_path(key), data[key], "a list of regular expressions"):
-            for i, pattern in enumerate(data[key]):
-                _regex(problems, json_path(key, i), pattern)
+    problems.extend(check.validate(AdapterFile, data)[1])
+    command = data.get("command")
+    if isinstance(command, list) and all(isinstance(w, str) for w in command) and "{script}" not in " ".join(command):
+        problems.add(("command",), "must contain {script}")
     thermo = data.get("thermo")
-    if thermo is None:
-        problems.add(json_path("thermo"), "required: {\"csv\": FILE} or {\"log_pattern\": REGEX}, with columns")
-    elif expect_type(problems, json_path("thermo"), thermo, dict, "an object"):
-        for key in sorted(set(thermo) - THERMO_KNOWN):
-            problems.add(json_path("thermo", key), f"unknown field (known: {', '.join(sorted(THERMO_KNOWN))})")
-        if ("csv" in thermo) == ("log_pattern" in thermo):
-            problems.add(json_path("thermo"), "needs exactly one of csv and log_pattern")
-        for key in ("csv", "delimiter", "file"):
-            if key in thermo:
-                expect_type(problems, json_path("thermo", key), thermo[key], str, "a string")
-        if "log_pattern" in thermo:
-            _regex(problems, json_path("thermo", "log_pattern"), thermo["log_pattern"])
-            if isinstance(thermo["log_pattern"], str) and "(?P<" not in thermo["log_pattern"]:
-                problems.add(json_path("thermo", "log_pattern"), "needs named groups, e.g. (?P<step>\\d+)")
-        if "columns" in thermo and expect_type(problems, json_path("thermo", "columns"), thermo["columns"], dict,
-                                               "an object: harness name -> the code's column"):
-            for name, column in thermo["columns"].items():
-                expect_type(problems, json_path("thermo", "columns", name), column, str, "a column name")
-    timing = data.get("timing", {})
-    if expect_type(problems, json_path("timing"), timing, dict, "an object: timing key -> regular expression"):
-        for key, pattern in timing.items():
-            if key not in TIMING_KEYS:
-                problems.add(json_path("timing", key), f"unknown timing key (known: {', '.join(TIMING_KEYS)})")
-            else:
-                before = len(problems.messages)
-                _regex(problems, json_path("timing", key), pattern)
-                if len(problems.messages) == before and isinstance(pattern, str) and re.compile(pattern).groups < 1:
-                    problems.add(json_path("timing", key), "needs a group holding the seconds")
+    if isinstance(thermo, dict) and ("csv" in thermo) == ("log_pattern" in thermo):
+        problems.add(("thermo",), "needs exactly one of csv and log_pattern")
+    for where, pattern in _patterns(data):
+        try:
+            compiled = re.compile(pattern)
+        except re.error as exc:
+            problems.add(where, f"not a regular expression ({exc})")
+            continue
+        if where[0] == "timing" and compiled.groups < 1:
+            problems.add(where, "needs a group holding the seconds")
+        if where == ("thermo", "log_pattern") and "(?P<" not in pattern:
+            problems.add(where, "needs named groups, e.g. (?P<step>\\d+)")
     problems.raise_if_any()
+
+
+def _patterns(data: dict):
+    """(JSON path, text) of every regular expression of the file that is a string."""
+    for key in ("errors", "warnings"):
+        for i, pattern in enumerate(data.get(key) if isinstance(data.get(key), list) else []):
+            if isinstance(pattern, str):
+                yield (key, i), pattern
+    thermo = data.get("thermo") if isinstance(data.get("thermo"), dict) else {}
+    if isinstance(thermo.get("log_pattern"), str):
+        yield ("thermo", "log_pattern"), thermo["log_pattern"]
+    timing = data.get("timing") if isinstance(data.get("timing"), dict) else {}
+    for key, pattern in timing.items():
+        if key in TIMING_KEYS and isinstance(pattern, str):
+            yield ("timing", key), pattern
 
 
 def _number(text: str) -> float:

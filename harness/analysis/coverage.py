@@ -100,14 +100,14 @@ def record_selection(target, build, machine: str, pattern: str | None = None, wo
                     or row.failure_message != problem:
                 record = ex.fail(ex.base_record(make_spec(target, info, adapter, machine, testcase, entry)),
                                  "config", problem)
-                record["finished"] = ex.now_iso()
+                record.finished = ex.now_iso()
                 store_record(record)
             continue
         if row is None or (missing is not None and row.state == "not_executed"):
             record = ex.base_record(make_spec(target, info, adapter, machine, testcase, entry))
             if missing is not None:
                 record = ex.fail(record, *missing)
-                record["finished"] = ex.now_iso()
+                record.finished = ex.now_iso()
             store_record(record, only_new=missing is None)
     # rows of run configurations the test cases no longer hold (within the selection's pattern)
     for (path, name, _content), row in live.items():

@@ -30,52 +30,39 @@ import copy
 import math
 from dataclasses import dataclass, field
 
+from harness.config.jsonfile import Problem
+
 SEPARATOR = "@"
-KINDS = ("strong", "weak")
 
 
 def point_name(name: str, cores: int) -> str:
     return f"{name}{SEPARATOR}cores={cores}"
 
 
-def validate(entry: dict) -> list[str]:
-    """Error messages (JSON path inside the entry first) for a run configuration's ``scaling`` block."""
+def problems(entry: dict, at: tuple = ()) -> list[Problem]:
+    """What the schema (``harness.config.runconfig.Scaling``) cannot say about a ``scaling`` block: distinct
+    core counts, one value of each ``with`` variable per core count, a weak study's size, and what it cannot
+    go with."""
     block = entry.get("scaling")
-    if block is None:
-        return []
     if not isinstance(block, dict):
-        return ["scaling: must be an object with cores (a list of core counts) and optionally kind and with"]
-    errors = [f"scaling.{key}: unknown field (known: cores, kind, with)"
-              for key in sorted(set(block) - {"cores", "kind", "with"})]
+        return []
+    found = []
     cores = block.get("cores")
-    if not isinstance(cores, list) or len(cores) < 2:
-        errors.append("scaling.cores: must be a list of at least two core counts, e.g. [1, 2]")
-    elif not all(isinstance(c, int) and not isinstance(c, bool) and c >= 1 for c in cores):
-        errors.append("scaling.cores: every core count must be an integer >= 1")
-    elif len(set(cores)) != len(cores):
-        errors.append("scaling.cores: core counts must be distinct")
-    kind = block.get("kind", "strong")
-    if kind not in KINDS:
-        errors.append(f"scaling.kind: must be one of {', '.join(KINDS)}")
+    if isinstance(cores, list) and len(set(map(repr, cores))) != len(cores):
+        found.append(Problem((*at, "scaling", "cores"), "core counts must be distinct"))
     companions = block.get("with", {})
-    if not isinstance(companions, dict):
-        errors.append("scaling.with: must map variable names to lists of values, one per core count")
-    else:
-        for name, values in companions.items():
-            if not isinstance(values, list) or not isinstance(cores, list) or len(values) != len(cores):
-                errors.append(f"scaling.with.{name}: must be a list with one value per core count")
-                continue
-            for j, value in enumerate(values):
-                if not isinstance(value, (str, int, float)) or isinstance(value, bool):
-                    errors.append(f"scaling.with.{name}[{j}]: must be a string or number, got {value!r}")
-        if kind == "weak" and not companions:
-            errors.append("scaling.with: a weak scaling study grows the size with the cores: name the variable "
-                          "and its values, e.g. {\"N\": [4000, 8000]}")
+    for name, column in (companions.items() if isinstance(companions, dict) else ()):
+        if isinstance(column, list) and isinstance(cores, list) and len(column) != len(cores):
+            found.append(Problem((*at, "scaling", "with", name), "must be a list with one value per core count"))
+    if block.get("kind") == "weak" and not companions:
+        found.append(Problem((*at, "scaling", "with"), "a weak scaling study grows the size with the cores: name "
+                             "the variable and its values, e.g. {\"N\": [4000, 8000]}"))
     if "sweep" in entry:
-        errors.append("scaling: a run configuration has either a sweep or a scaling block, not both")
+        found.append(Problem((*at, "scaling"), "a run configuration has either a sweep or a scaling block, not "
+                             "both"))
     if entry.get("type") == "mpi/custom":
-        errors.append("scaling: not with type mpi/custom (the study sets the ranks itself)")
-    return errors
+        found.append(Problem((*at, "scaling"), "not with type mpi/custom (the study sets the ranks itself)"))
+    return found
 
 
 def expand(entry: dict, parallelism: str = "mpi") -> list[dict]:

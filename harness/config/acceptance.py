@@ -44,8 +44,8 @@ from pathlib import Path
 
 import numpy as np
 
-REDUCTIONS = ("end", "start", "min", "max", "mean")
-STABILITY_CHECKS = ("finite", "particle_count", "energy_never_grows", "energy_drift", "max_overlap", "blowup")
+from harness.config.jsonfile import Problem
+
 #: the largest overlap / radius a run may reach before it counts as blown up (engine/blowup.py's default, and
 #: the reason for it there: contact laws of small overlaps; at half a radius the forces are time-step artefacts)
 BLOWUP_MAX_OVERLAP = 0.5
@@ -93,92 +93,28 @@ def _is_number(value) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def _validate_quantity(quantity, where: str) -> list[str]:
-    if not isinstance(quantity, str) or not quantity.strip():
-        return [f"{where}: must be a string SERIES.COLUMN, e.g. 'thermo.ke'"]
-    errors = []
-    for term in quantity.split("+"):
-        series, _, column = term.strip().partition(".")
-        if not series or not column:
-            errors.append(f"{where}: term {term.strip()!r} is not of the form SERIES.COLUMN")
-    return errors
-
-
-def _validate_bounds(spec: dict, where: str, allow_value: bool = True) -> list[str]:
-    errors = []
-    keys = ("value", "rel_tol", "abs_tol", "lower", "upper") if allow_value else ("rel_tol", "abs_tol", "upper")
-    for key in keys:
-        if key in spec and not _is_number(spec[key]):
-            errors.append(f"{where}.{key}: must be a finite number, got {spec[key]!r}")
-    for key in ("rel_tol", "abs_tol"):
-        if _is_number(spec.get(key)) and spec[key] < 0:
-            errors.append(f"{where}.{key}: must be >= 0, got {spec[key]!r}")
-    if allow_value:
-        has_value = "value" in spec
-        if has_value and "rel_tol" not in spec and "abs_tol" not in spec:
-            errors.append(f"{where}: 'value' needs 'rel_tol' or 'abs_tol'")
-        if not has_value and "lower" not in spec and "upper" not in spec:
-            errors.append(f"{where}: needs 'value' with a tolerance, or 'lower'/'upper'")
-    return errors
-
-
-def validate(entry: dict) -> list[str]:
-    """Error messages for the ``expectations`` and ``stability`` keys of one run configuration entry.
-
-    Each message starts with the JSON path inside the entry (e.g. ``expectations[1].at``).
-    """
-    errors: list[str] = []
-    expectations = entry.get("expectations", [])
-    if not isinstance(expectations, list):
-        errors.append("expectations: must be a list of objects")
-        expectations = []
-    for i, spec in enumerate(expectations):
-        where = f"expectations[{i}]"
+def problems(entry: dict, at: tuple = ()) -> list[Problem]:
+    """What the schema (``harness.config.runconfig``) cannot say about an entry's ``expectations`` and
+    ``stability``: which bounds go together. Fields of the wrong type are the schema's problems and skipped."""
+    found = []
+    expectations = entry.get("expectations")
+    for i, spec in enumerate(expectations if isinstance(expectations, list) else []):
         if not isinstance(spec, dict):
-            errors.append(f"{where}: must be an object")
             continue
-        errors += _validate_quantity(spec.get("quantity"), f"{where}.quantity")
-        if spec.get("at", "end") not in REDUCTIONS:
-            errors.append(f"{where}.at: must be one of {', '.join(REDUCTIONS)}, got {spec.get('at')!r}")
-        errors += _validate_bounds(spec, where)
-        unknown = set(spec) - {"quantity", "at", "value", "rel_tol", "abs_tol", "lower", "upper", "name"}
-        if unknown:
-            errors.append(f"{where}: unknown field(s) {', '.join(sorted(unknown))}")
-
-    stability = entry.get("stability", {})
-    if stability is False:
-        return errors
-    if not isinstance(stability, dict):
-        return errors + ["stability: must be an object (or false: no default checks)"]
-    for key, spec in stability.items():
-        where = f"stability.{key}"
-        if key not in STABILITY_CHECKS:
-            errors.append(f"{where}: unknown check (known: {', '.join(STABILITY_CHECKS)})")
-        elif spec is False and key in DEFAULT_STABILITY:
+        if "value" in spec and "rel_tol" not in spec and "abs_tol" not in spec:
+            found.append(Problem((*at, "expectations", i), "'value' needs 'rel_tol' or 'abs_tol'"))
+        if "value" not in spec and "lower" not in spec and "upper" not in spec:
+            found.append(Problem((*at, "expectations", i), "needs 'value' with a tolerance, or 'lower'/'upper'"))
+    stability = entry.get("stability")
+    for key, spec in (stability.items() if isinstance(stability, dict) else ()):
+        if not isinstance(spec, dict):
             continue
-        elif key == "finite":
-            if not isinstance(spec, bool):
-                errors.append(f"{where}: must be true or false")
-        elif not isinstance(spec, dict):
-            errors.append(f"{where}: must be an object")
-        elif key == "blowup":
-            if set(spec) != {"max_overlap"} or not _is_number(spec["max_overlap"]) or spec["max_overlap"] <= 0:
-                errors.append(f"{where}: must be false or {{\"max_overlap\": X}} with X > 0 (largest overlap / "
-                              "radius before the run counts as blown up)")
-        elif key == "particle_count":
-            errors += _validate_quantity(spec.get("column", "thermo.atoms"), f"{where}.column")
-            if not _is_number(spec.get("max_loss", 0)) or spec.get("max_loss", 0) < 0:
-                errors.append(f"{where}.max_loss: must be a number >= 0")
-        else:
-            errors += _validate_quantity(spec.get("quantity"), f"{where}.quantity")
-            errors += _validate_bounds(spec, where, allow_value=False)
-            if key == "max_overlap" and "upper" not in spec:
-                errors.append(f"{where}: needs 'upper' (largest overlap allowed, as a fraction of the radius)")
-            if key in ("energy_never_grows", "energy_drift") and "rel_tol" not in spec and "abs_tol" not in spec:
-                errors.append(f"{where}: needs 'rel_tol' or 'abs_tol'")
-            if "after" in spec and not _is_number(spec["after"]):
-                errors.append(f"{where}.after: must be a number")
-    return errors
+        if key == "max_overlap" and "upper" not in spec:
+            found.append(Problem((*at, "stability", key), "needs 'upper' (largest overlap allowed, as a fraction "
+                                                         "of the radius)"))
+        if key in ("energy_never_grows", "energy_drift") and "rel_tol" not in spec and "abs_tol" not in spec:
+            found.append(Problem((*at, "stability", key), "needs 'rel_tol' or 'abs_tol'"))
+    return found
 
 
 # ---------------------------------------------------------------------------------------------- evaluation

@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 from harness.adapters.base import UserError
@@ -86,6 +87,15 @@ def _locate(text: str, made: list[tuple[int, NonFinite]]) -> None:
                 return
 
 
+class JsonFileError(UserError):
+    """A file that is no JSON the harness reads (missing, not UTF-8, a syntax error, NaN): ``problem`` says
+    what, without the file's name."""
+
+    def __init__(self, path, problem: str):
+        super().__init__(f"{path}: {problem}")
+        self.problem = problem
+
+
 def load_json(path: Path, strict: bool = True):
     """Parse ``path``; a syntax error becomes a UserError with line and column.
 
@@ -95,29 +105,29 @@ def load_json(path: Path, strict: bool = True):
     try:
         text = Path(path).read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise UserError(f"{path}: file not found") from None
+        raise JsonFileError(path, "file not found") from None
     except UnicodeDecodeError as exc:
-        raise UserError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+        raise JsonFileError(path, f"not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     except OSError as exc:
-        raise UserError(f"{path}: cannot read ({exc.strerror})") from None
+        raise JsonFileError(path, f"cannot read ({exc.strerror})") from None
     made, _count, hooks = _number_hooks()
     try:
         data = json.loads(text, **hooks)
     except json.JSONDecodeError as exc:
-        raise UserError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+        raise JsonFileError(path, f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
     except RecursionError:
-        raise UserError(f"{path}: invalid JSON: nested too deeply") from None
+        raise JsonFileError(path, "invalid JSON: nested too deeply") from None
     if made:
         _locate(text, made)
         if strict:
-            raise UserError(f"{path}: {made[0][1].describe()}")
+            raise JsonFileError(path, made[0][1].describe())
     return data
 
 
 def non_finite_problems(problems: "Problems", value, *where) -> None:
     """Report every ``NonFinite`` marker inside ``value`` (found at JSON path ``where``)."""
     if isinstance(value, NonFinite):
-        problems.add(json_path(*where), value.describe())
+        problems.add(where, value.describe())
     elif isinstance(value, dict):
         for key, item in value.items():
             non_finite_problems(problems, item, *where, key)
@@ -144,45 +154,50 @@ def json_path(*parts) -> str:
     return out
 
 
+@dataclass(frozen=True)
+class Problem:
+    """One problem of a file: where (the JSON path as parts, ``("runs", 1, "nprocs")``; ``()`` is the whole
+    document) and what is wrong. ``label`` names a place that is no JSON path (``file name``)."""
+
+    path: tuple
+    message: str
+    label: str | None = None
+
+    def where(self) -> str:
+        """``$.runs[1].nprocs``, the label, or "" for a problem of the file as such (not JSON at all)."""
+        return json_path(*self.path) if self.label is None else self.label
+
+    def line(self, file) -> str:
+        """The one line a user reads: ``FILE: $.runs[1].nprocs: must be at least 1``."""
+        return f"{file}: {self.where()}: {self.message}" if self.where() else f"{file}: {self.message}"
+
+
 class Problems:
-    """Collects validation messages for one file."""
+    """The problems of one file, in the order found."""
 
     def __init__(self, path: Path):
         self.path = Path(path)
-        self.messages: list[str] = []
+        self.found: list[Problem] = []
 
-    def add(self, where: str, what: str) -> None:
-        self.messages.append(f"{self.path}: {where}: {what}")
+    def add(self, where, what: str) -> None:
+        """A problem at JSON path ``where`` (parts: ``("runs", 1)``), or at a place a label names."""
+        problem = Problem(tuple(where), what) if isinstance(where, (tuple, list)) else Problem((), what, where)
+        self.found.append(problem)
+
+    def extend(self, problems) -> None:
+        self.found.extend(problems)
+
+    @property
+    def messages(self) -> list[str]:
+        return [problem.line(self.path) for problem in self.found]
+
+    def at(self, path: tuple) -> list[Problem]:
+        """The problems at ``path`` or below it."""
+        return [p for p in self.found if p.path[:len(path)] == path and p.label is None]
 
     def __bool__(self):
-        return bool(self.messages)
+        return bool(self.found)
 
     def raise_if_any(self) -> None:
-        if self.messages:
+        if self.found:
             raise UserError("; ".join(self.messages))
-
-
-def expect_type(problems: Problems, where: str, value, types, what: str) -> bool:
-    """Record a problem unless ``value`` is an instance of ``types`` (bool is never a number here).
-
-    A ``NonFinite`` marker is never of the right type, also where a string would do; it is reported once,
-    by ``non_finite_problems``, so no second message is added here.
-    """
-    if isinstance(value, NonFinite):
-        return False
-    ok = isinstance(value, types) and not (isinstance(value, bool) and bool not in _as_tuple(types))
-    if not ok:
-        problems.add(where, f"must be {what}, got {_describe(value)}")
-    return ok
-
-
-def _describe(value) -> str:
-    """``string "ten"``, ``list ["a"]``, ``true``, ``null``: the JSON kind and (the start of) the value."""
-    text = json.dumps(value)
-    text = text if len(text) <= 60 else text[:57] + "..."
-    kind = {dict: "object", list: "list", str: "string", int: "integer", float: "number"}.get(type(value))
-    return f"{kind} {text}" if kind else text
-
-
-def _as_tuple(types):
-    return types if isinstance(types, tuple) else (types,)

@@ -26,7 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from harness.config.acceptance import REDUCTIONS, reduce_values
+from harness.config.acceptance import reduce_values
+from harness.config.jsonfile import Problem
 from harness.store.rules import SUCCESS_STATES
 
 SEPARATOR = "@"
@@ -36,49 +37,21 @@ def point_name(name: str, variable: str, value) -> str:
     return f"{name}{SEPARATOR}{variable}={value:g}" if isinstance(value, float) else f"{name}{SEPARATOR}{variable}={value}"
 
 
-def validate(entry: dict) -> list[str]:
-    """Error messages (JSON path inside the entry first) for a run configuration's ``sweep`` block."""
+def problems(entry: dict, at: tuple = ()) -> list[Problem]:
+    """What the schema (``harness.config.runconfig.Sweep``) cannot say about a ``sweep`` block: distinct
+    values, one value of each ``with`` variable per sweep value."""
     sweep = entry.get("sweep")
-    if sweep is None:
+    if not isinstance(sweep, dict) or not isinstance(sweep.get("values"), list):
         return []
-    if not isinstance(sweep, dict):
-        return ["sweep: must be an object with variable, values and error"]
-    errors = []
-    if not isinstance(sweep.get("variable"), str) or not sweep.get("variable"):
-        errors.append("sweep.variable: must be a variable name (passed as -var NAME VALUE)")
-    values = sweep.get("values")
-    if not isinstance(values, list) or len(values) < 2:
-        errors.append("sweep.values: must be a list of at least two values")
-    elif not all(isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0 for v in values):
-        errors.append("sweep.values: every value must be a number > 0 (the plot is log-log)")
-    elif len(set(values)) != len(values):
-        errors.append("sweep.values: values must be distinct")
+    found = []
+    values = sweep["values"]
+    if len(set(map(repr, values))) != len(values):
+        found.append(Problem((*at, "sweep", "values"), "values must be distinct"))
     companions = sweep.get("with", {})
-    if not isinstance(companions, dict):
-        errors.append("sweep.with: must map variable names to lists of values, one per sweep value")
-    else:
-        for name, values in companions.items():
-            if not isinstance(values, list) or not isinstance(sweep.get("values"), list) \
-                    or len(values) != len(sweep["values"]):
-                errors.append(f"sweep.with.{name}: must be a list with one value per sweep value")
-                continue
-            for j, value in enumerate(values):  # each becomes -var NAME VALUE of one point
-                if not isinstance(value, (str, int, float)) or isinstance(value, bool):
-                    errors.append(f"sweep.with.{name}[{j}]: must be a string or number, got {value!r}")
-    error = sweep.get("error")
-    if not isinstance(error, dict):
-        errors.append("sweep.error: must be an object with quantity (SERIES.COLUMN) and optionally at, exact")
-    else:
-        quantity = error.get("quantity")
-        if not isinstance(quantity, str) or "." not in quantity:
-            errors.append("sweep.error.quantity: must be SERIES.COLUMN, e.g. 'thermo.ke'")
-        if error.get("at", "end") not in REDUCTIONS:
-            errors.append(f"sweep.error.at: must be one of {', '.join(REDUCTIONS)}")
-        if "exact" in error and not isinstance(error["exact"], (int, float)):
-            errors.append("sweep.error.exact: must be a number")
-    if sweep.get("finest", "min") not in ("min", "max"):
-        errors.append("sweep.finest: must be 'min' or 'max'")
-    return errors
+    for name, column in (companions.items() if isinstance(companions, dict) else ()):
+        if isinstance(column, list) and len(column) != len(values):
+            found.append(Problem((*at, "sweep", "with", name), "must be a list with one value per sweep value"))
+    return found
 
 
 def expand(entry: dict) -> list[dict]:

@@ -1,72 +1,11 @@
 """Target definitions: ``targets/NAME.json`` after the thesis' listings 4.1 and 4.10.
 
-A target is a named build of a DEM code at a git revision. Fields (all optional unless stated):
-
-``repository``
-    path or URL of the git repository; relative paths are relative to the folder holding the ``targets/``
-    folder (the project checkout). Default: the repository the target file is in (this project's).
-``revision``
-    tag, branch, commit or ``HEAD`` (default ``HEAD``); GitPython resolves it to a commit.
-``recipe``
-    how to build: ``dem`` (the bundled engine, ``engine/`` exported at the commit), ``make``
-    (``make <make_target>`` in ``source_folder``), ``cmake`` (configure ``source_folder`` into a build folder
-    and build it) or ``system`` (an installed ``executable``). Inferred from ``make_target`` / ``executable``
-    when absent, else ``dem``.
-``source_folder``
-    folder inside the repository that is built (``dem``: default ``engine``; ``make``: default ``.``;
-    ``cmake``: the folder holding ``CMakeLists.txt``, default ``.``).
-``make_target``, ``make_variables``, ``generated_executable``
-    for ``make``: ``make <make_target> NAME=VALUE...``; the program it leaves in ``source_folder``. For
-    ``cmake``, ``generated_executable`` is the program's path in the build folder.
-``configure``
-    for ``make``: shell commands run in ``source_folder`` before ``make`` (e.g. ``make stubs``).
-``cmake_options``, ``build_type``, ``build_targets``
-    for ``cmake``: ``-DNAME=VALUE`` options (an object), ``CMAKE_BUILD_TYPE`` (default ``Release``) and the
-    targets ``cmake --build`` builds (default: all).
-``prebuild``, ``postbuild``
-    shell commands run in the exported tree before the build starts and after it succeeded.
-``env``
-    environment variables of every build command (e.g. ``{"CXXFLAGS": "-O2"}``).
-``jobs``
-    parallel compile jobs (default: the machine's cores; ``harness build -j N`` overrides it).
-``ccache``
-    compile through ccache with its cache in the workspace (``<workspace>/ccache``), so that a commit next to
-    a built one compiles only what changed; default true when ``ccache`` is installed.
-``export``
-    folders taken from the commit (default: ``source_folder``; ``["."]`` for the whole tree).
-``requires``
-    what the build needs, checked before anything starts: a string names an executable (and the Debian
-    package of the same name), an object ``{"executable": ..., "package": ...}`` or ``{"package": ...}``.
-``patches``
-    per range of commits: ``{"from": REV, "before": REV, "files": [...], "env": {...}, "cmake_options":
-    {...}}``. An entry applies to a commit that descends from ``from`` (or is it) and does not descend from
-    ``before`` (both optional); its patch files (relative to the targets folder, applied with ``-p1`` to
-    the exported tree) are applied in order and its ``env`` / ``cmake_options`` added. The patch files'
-    content is part of the definition hash.
-``on_demand``
-    true: the target is built, run and checked only when named on the command line (a cold build costs
-    minutes); ``harness build`` without names skips it.
-``executable``
-    for ``system``: an absolute path or a name looked up on PATH (e.g. ``/usr/bin/liggghts``).
-``engine``
-    the engine adapter (``dem``, ``liggghts``); default ``dem``.
-``testcases``
-    list of test case folders, relative to the test case repository root, or absolute folders (read as they
-    are, no git); default ``["testcases"]``.
-``testcases_repository``
-    default: ``repository`` (the project's own repository for ``system`` targets).
-``testcases_revision``
-    revision the test cases are exported at; ``working-tree`` reads the checkout as it is. Default: the
-    target's ``revision``, or ``working-tree`` when that is ``HEAD``.
-``reference``
-    name of the target this one is compared against (thesis listing 4.10).
-``thermo_columns``
-    mapping of the harness' thermo names onto the engine's column names, e.g. ``{"ke": "KinEng"}``.
-``mpi_launcher``
-    launcher prefix for mpi runs (default ``["mpirun"]``), a non-empty list of strings.
-``commit_url``
-    the repository's web view of one commit, with ``{commit}`` where the commit goes, e.g.
-    ``"https://github.com/CFDEMproject/LIGGGHTS-PUBLIC/commit/{commit}"``; the dashboard links commits there.
+A target is a named build of a DEM code at a git revision. Its fields (repository, revision, recipe and the
+recipes' fields, engine, test case folders, reference, ...) are declared once, with their defaults and
+meaning, in ``harness.config.target.Target`` (``harness schema target`` prints them as JSON Schema;
+harness/README.md has a table). Here they are checked against that schema and what it cannot say (which
+recipe requires or takes which field, folders inside the repository, patch files that exist, a reference
+that is a name and not the target itself), and read into a ``TargetDefinition`` with its defaults filled in.
 
 The target's name is its file name without ``.json``; it names folders in the workspace, so it must be a
 safe single path segment (``harness.execution.workspace.segment_problem``), as must ``reference`` and every part of
@@ -82,25 +21,20 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
 from harness.adapters.base import UserError
-from harness.config.jsonfile import Problems, expect_type, json_path, load_json, non_finite_problems
+from harness.config import check
+from harness.config.target import WORKING_TREE, Target
+from harness.config.jsonfile import Problem, Problems, load_json, non_finite_problems
 from harness.execution.workspace import PROJECT_ROOT, segment_problem
 
-WORKING_TREE = "working-tree"
-RECIPES = ("dem", "make", "cmake", "system")
-KNOWN_KEYS = {
-    "repository", "revision", "recipe", "source_folder", "make_target", "make_variables", "make_jobs",
-    "generated_executable", "executable", "engine", "testcases", "testcases_repository", "testcases_revision",
-    "reference", "thermo_columns", "mpi_launcher", "description", "commit_url",
-    "configure", "cmake_options", "build_type", "build_targets", "prebuild", "postbuild", "env", "jobs",
-    "ccache", "export", "requires", "patches", "on_demand",
-}
 #: fields that change the binary; the build cache is keyed by their hash and the commit
 BUILD_KEYS = ("repository", "recipe", "source_folder", "make_target", "make_variables", "generated_executable",
               "executable")
 #: build fields added later: hashed only when a definition sets them, so older targets keep their builds
 OPTIONAL_BUILD_KEYS = ("configure", "cmake_options", "build_type", "build_targets", "prebuild", "postbuild",
                        "env", "export", "patches")
-PATCH_KEYS = {"from", "before", "files", "env", "cmake_options"}
+#: fields of the make and cmake recipes only
+BUILD_RECIPE_KEYS = ("configure", "cmake_options", "build_type", "build_targets", "prebuild", "postbuild", "env",
+                     "jobs", "ccache", "export", "requires", "patches")
 
 
 def targets_dir() -> Path:
@@ -186,7 +120,8 @@ def _resolve_repository(value: str | None, base: Path) -> str:
 
 
 def parse_target(name: str, data, path: Path) -> TargetDefinition:
-    """Validate a target definition; every problem names the file and the JSON path."""
+    """Validate a target definition against the schema (``harness.config.target``) and what it cannot say;
+    every problem names the file and the JSON path (a UserError listing them)."""
     problems = Problems(path)
     problem = segment_problem(name)
     if problem:
@@ -194,70 +129,18 @@ def parse_target(name: str, data, path: Path) -> TargetDefinition:
         problems.add("file name", f"target name {problem}")
     non_finite_problems(problems, data)
     if not isinstance(data, dict):
-        problems.add("$", "a target definition must be a JSON object")
+        problems.add((), "a target definition must be a JSON object")
         problems.raise_if_any()
-    for key in sorted(set(data) - KNOWN_KEYS):
-        problems.add(json_path(key), f"unknown field (known: {', '.join(sorted(KNOWN_KEYS))})")
-    for key in ("repository", "revision", "recipe", "source_folder", "make_target", "generated_executable",
-                "executable", "engine", "testcases_repository", "testcases_revision", "reference", "description",
-                "commit_url"):
-        if key in data:
-            expect_type(problems, json_path(key), data[key], str, "a string")
-    if isinstance(data.get("commit_url"), str) and "{commit}" not in data["commit_url"]:
-        problems.add(json_path("commit_url"), "must hold {commit} where the commit goes, "
-                     "e.g. https://example.org/repo/commit/{commit}")
+    problems.extend(check.validate(Target, data)[1])
     recipe = data.get("recipe") or ("make" if "make_target" in data else "system" if "executable" in data
                                     else "dem")
-    if recipe not in RECIPES:
-        problems.add(json_path("recipe"), f"unknown recipe {recipe!r} (known: {', '.join(RECIPES)})")
-    if recipe == "make":
-        for key in ("make_target", "generated_executable"):
-            if key not in data:
-                problems.add(json_path(key), "required for the make recipe")
-    if recipe == "cmake" and "generated_executable" not in data:
-        problems.add(json_path("generated_executable"), "required for the cmake recipe (the program's path "
-                     "in the build folder)")
-    if recipe not in ("make", "cmake"):
-        for key in ("configure", "cmake_options", "build_type", "build_targets", "prebuild", "postbuild", "env",
-                    "jobs", "ccache", "export", "requires", "patches"):
-            if key in data:
-                problems.add(json_path(key), f"only for the make and cmake recipes (this target's is {recipe!r})")
-    for key in ("configure", "cmake_options", "build_type", "build_targets"):
-        if key in data and recipe in ("make", "cmake") and recipe != ("make" if key == "configure" else "cmake"):
-            problems.add(json_path(key), f"only for the {'make' if key == 'configure' else 'cmake'} recipe")
-    _build_field_problems(problems, data, path)
-    if recipe == "system" and "executable" not in data:
-        problems.add(json_path("executable"), "required for the system recipe")
-    testcases = data.get("testcases", ["testcases"])
-    if expect_type(problems, json_path("testcases"), testcases, list, "a list of folders"):
-        for i, item in enumerate(testcases):
-            if expect_type(problems, json_path("testcases", i), item, str, "a folder (string)"):
-                problem = _testcases_folder_problem(item)
-                if problem:
-                    problems.add(json_path("testcases", i), problem)
-    for key in ("make_variables", "thermo_columns"):
-        if key in data and expect_type(problems, json_path(key), data[key], dict, "an object"):
-            for sub, value in data[key].items():
-                expect_type(problems, json_path(key, sub), value, (str, int, float), "a string or number")
-    if "make_jobs" in data and expect_type(problems, json_path("make_jobs"), data["make_jobs"], int, "an integer"):
-        if data["make_jobs"] < 1:
-            problems.add(json_path("make_jobs"), "must be at least 1")
-    launcher = data.get("mpi_launcher", ["mpirun"])
-    if expect_type(problems, json_path("mpi_launcher"), launcher, list, "a list of strings"):
-        if not launcher:
-            problems.add(json_path("mpi_launcher"), 'must hold at least the launcher program, e.g. ["mpirun"]')
-        for i, item in enumerate(launcher):
-            if expect_type(problems, json_path("mpi_launcher", i), item, str, "a string") and not item.strip():
-                problems.add(json_path("mpi_launcher", i), "must not be empty")
-    reference = data.get("reference")
-    if isinstance(reference, str):
-        problem = segment_problem(reference)
-        if problem:  # a reference is read from <reference>.json next to this file: a name, never a path
-            problems.add(json_path("reference"), f"target {problem}")
-        elif reference == name:
-            problems.add(json_path("reference"), "a target cannot be its own reference")
+    problems.extend(_recipe_problems(data, recipe) + _folder_problems(data, path) + _reference_problems(data, name))
     problems.raise_if_any()
+    return _definition(name, data, path, recipe)
 
+
+def _definition(name: str, data: dict, path: Path, recipe: str) -> TargetDefinition:
+    """The definition of a valid target file ``data``: defaults filled in, paths resolved."""
     base = path.resolve().parent.parent
     patches = [{"from": entry.get("from"), "before": entry.get("before"),
                 "files": [(path.resolve().parent / f).resolve() for f in entry.get("files", [])],
@@ -273,7 +156,7 @@ def parse_target(name: str, data, path: Path) -> TargetDefinition:
     return TargetDefinition(
         name=name, path=path, raw=data, repository=repository, revision=revision, recipe=recipe,
         source_folder=source_folder,
-        engine=data.get("engine", "dem"), testcases=list(testcases),
+        engine=data.get("engine", "dem"), testcases=list(data.get("testcases", ["testcases"])),
         testcases_repository=_resolve_repository(data.get("testcases_repository"), base)
         if data.get("testcases_repository") else repository,
         testcases_revision=testcases_revision, reference=data.get("reference"),
@@ -281,7 +164,7 @@ def parse_target(name: str, data, path: Path) -> TargetDefinition:
                                                               data.get("make_variables", {}).items()},
         make_jobs=data.get("make_jobs", 1), generated_executable=data.get("generated_executable"),
         executable=data.get("executable"), thermo_columns=dict(data.get("thermo_columns", {})),
-        mpi_launcher=list(launcher),
+        mpi_launcher=list(data.get("mpi_launcher", ["mpirun"])),
         configure=list(data.get("configure", [])),
         cmake_options={k: str(v) for k, v in data.get("cmake_options", {}).items()},
         build_type=data.get("build_type", "Release"), build_targets=list(data.get("build_targets", [])),
@@ -293,70 +176,67 @@ def parse_target(name: str, data, path: Path) -> TargetDefinition:
     )
 
 
-def _build_field_problems(problems: Problems, data: dict, path: Path) -> None:
-    """Type and shape of the build recipe fields (``configure`` ... ``patches``)."""
-    for key in ("configure", "prebuild", "postbuild", "build_targets", "export"):
-        if key in data and expect_type(problems, json_path(key), data[key], list, "a list of strings"):
-            for i, item in enumerate(data[key]):
-                if expect_type(problems, json_path(key, i), item, str, "a string") and not item.strip():
-                    problems.add(json_path(key, i), "must not be empty")
-    for item in data.get("export", []) if isinstance(data.get("export"), list) else []:
+def _recipe_problems(data: dict, recipe: str) -> list[Problem]:
+    """Fields a recipe requires, and fields only other recipes take."""
+    found = []
+    if recipe == "make":
+        found += [Problem((key,), "required for the make recipe") for key in ("make_target", "generated_executable")
+                  if key not in data]
+    if recipe == "cmake" and "generated_executable" not in data:
+        found.append(Problem(("generated_executable",), "required for the cmake recipe (the program's path in "
+                                                        "the build folder)"))
+    if recipe == "system" and "executable" not in data:
+        found.append(Problem(("executable",), "required for the system recipe"))
+    if recipe not in ("make", "cmake"):
+        found += [Problem((key,), f"only for the make and cmake recipes (this target's is {recipe!r})")
+                  for key in BUILD_RECIPE_KEYS if key in data]
+    else:
+        for key in ("configure", "cmake_options", "build_type", "build_targets"):
+            only = "make" if key == "configure" else "cmake"
+            if key in data and recipe != only:
+                found.append(Problem((key,), f"only for the {only} recipe"))
+    return found
+
+
+def _folder_problems(data: dict, path: Path) -> list[Problem]:
+    """Folders and files the definition names: test case folders and exports that stay inside the
+    repository, patch files that exist, requirements that name something."""
+    found = []
+    testcases = data.get("testcases")
+    for i, item in enumerate(testcases if isinstance(testcases, list) else []):
+        problem = _testcases_folder_problem(item) if isinstance(item, str) else None
+        if problem:
+            found.append(Problem(("testcases", i), problem))
+    export = data.get("export")
+    for item in export if isinstance(export, list) else []:
         if isinstance(item, str) and (item.startswith("/") or ".." in PurePosixPath(item).parts):
-            problems.add(json_path("export"), f"folder {item!r} must be relative to the repository root, "
-                         "without '..'")
-    if "build_type" in data:
-        expect_type(problems, json_path("build_type"), data["build_type"], str, "a string (e.g. Release)")
-    for key in ("ccache", "on_demand"):
-        if key in data:
-            expect_type(problems, json_path(key), data[key], bool, "true or false")
-    for key in ("cmake_options", "env"):
-        if key in data and expect_type(problems, json_path(key), data[key], dict, "an object"):
-            for sub, value in data[key].items():
-                expect_type(problems, json_path(key, sub), value, (str, int, float), "a string or number")
-    if "jobs" in data and expect_type(problems, json_path("jobs"), data["jobs"], int, "an integer"):
-        if isinstance(data["jobs"], bool) or data["jobs"] < 1:
-            problems.add(json_path("jobs"), "must be at least 1")
-    if "requires" in data and expect_type(problems, json_path("requires"), data["requires"], list,
-                                          "a list of requirements"):
-        for i, item in enumerate(data["requires"]):
-            where = json_path("requires", i)
-            if isinstance(item, str):
-                if not item.strip():
-                    problems.add(where, "must name an executable")
-            elif isinstance(item, dict):
-                unknown = set(item) - {"executable", "package"}
-                if unknown or not item:
-                    problems.add(where, 'an object has "executable" and/or "package" (strings)')
-                for sub, value in item.items():
-                    if sub in ("executable", "package"):
-                        expect_type(problems, json_path("requires", i, sub), value, str, "a string")
-            else:
-                problems.add(where, 'must be an executable name or {"executable": ..., "package": ...}')
-    if "patches" in data and expect_type(problems, json_path("patches"), data["patches"], list,
-                                         "a list of commit ranges"):
-        for i, entry in enumerate(data["patches"]):
-            if not expect_type(problems, json_path("patches", i), entry, dict, "an object"):
-                continue
-            for key in sorted(set(entry) - PATCH_KEYS):
-                problems.add(json_path("patches", i, key), f"unknown field (known: {', '.join(sorted(PATCH_KEYS))})")
-            for key in ("from", "before"):
-                if key in entry and expect_type(problems, json_path("patches", i, key), entry[key], str,
-                                                "a revision (string)") and not entry[key].strip():
-                    problems.add(json_path("patches", i, key), "must name a revision")
-            for key in ("env", "cmake_options"):
-                if key in entry and expect_type(problems, json_path("patches", i, key), entry[key], dict,
-                                                "an object"):
-                    for sub, value in entry[key].items():
-                        expect_type(problems, json_path("patches", i, key, sub), value, (str, int, float),
-                                    "a string or number")
-            files = entry.get("files", [])
-            if expect_type(problems, json_path("patches", i, "files"), files, list, "a list of patch files"):
-                for j, name in enumerate(files):
-                    where = json_path("patches", i, "files", j)
-                    if expect_type(problems, where, name, str, "a file name (string)"):
-                        if not (path.resolve().parent / name).is_file():
-                            problems.add(where, f"patch file {name!r} not found (relative to "
-                                         f"{path.resolve().parent})")
+            found.append(Problem(("export",), f"folder {item!r} must be relative to the repository root, "
+                                              "without '..'"))
+    requires = data.get("requires")
+    for i, item in enumerate(requires if isinstance(requires, list) else []):
+        if item == {}:
+            found.append(Problem(("requires", i), 'an object has "executable" and/or "package" (strings)'))
+    patches = data.get("patches")
+    for i, entry in enumerate(patches if isinstance(patches, list) else []):
+        files = entry.get("files") if isinstance(entry, dict) else None
+        for j, name in enumerate(files if isinstance(files, list) else []):
+            if isinstance(name, str) and not (path.resolve().parent / name).is_file():
+                found.append(Problem(("patches", i, "files", j), f"patch file {name!r} not found (relative to "
+                                                                  f"{path.resolve().parent})"))
+    return found
+
+
+def _reference_problems(data: dict, name: str) -> list[Problem]:
+    """A reference is read from ``<reference>.json`` next to this file: a name, never a path, not itself."""
+    reference = data.get("reference")
+    if not isinstance(reference, str):
+        return []
+    problem = segment_problem(reference)
+    if problem:
+        return [Problem(("reference",), f"target {problem}")]
+    if reference == name:
+        return [Problem(("reference",), "a target cannot be its own reference")]
+    return []
 
 
 def _testcases_folder_problem(folder: str) -> str | None:
@@ -387,22 +267,33 @@ def load_targets(folder: Path | None = None) -> tuple[dict[str, TargetDefinition
 
     A target whose reference is unknown is reported and left out; the others are kept.
     """
+    targets, problems, _left_out = _load_targets(folder)
+    return targets, problems
+
+
+def _load_targets(folder: Path | None) -> tuple[dict[str, TargetDefinition], list[str], dict[str, str]]:
+    """``load_targets`` and, by target name, the problem that left each broken target out."""
     folder = Path(folder) if folder else targets_dir()
     targets: dict[str, TargetDefinition] = {}
     problems: list[str] = []
-    broken: set[str] = set()
+    left_out: dict[str, str] = {}
+
+    def leave_out(name: str, problem: str) -> None:
+        problems.append(problem)
+        left_out.setdefault(name, problem)
+
     for path in sorted(folder.glob("*.json")) if folder.is_dir() else []:
         try:
             targets[path.stem] = load_target_file(path)
         except UserError as exc:
-            problems.append(str(exc))
-            broken.add(path.stem)
+            leave_out(path.stem, str(exc))
+    broken = set(left_out)
     references = {name: target.reference for name, target in targets.items()}
     for name in sorted(targets):
         cycle = _reference_cycle(name, references)
         if cycle and cycle[0] == name:  # on the cycle; a target leading into one is handled below
-            problems.append(f"{targets[name].path}: $.reference: reference cycle {' -> '.join(cycle)} "
-                            "(a target cannot be compared with itself, also not through others)")
+            leave_out(name, f"{targets[name].path}: $.reference: reference cycle {' -> '.join(cycle)} "
+                      "(a target cannot be compared with itself, also not through others)")
             broken.add(name)
     for name in broken & set(targets):
         del targets[name]
@@ -415,11 +306,11 @@ def load_targets(folder: Path | None = None) -> tuple[dict[str, TargetDefinition
                 what = (f"target {target.reference!r} is not usable (see the problem of "
                         f"{target.reference}.json)" if target.reference in broken
                         else f"unknown target {target.reference!r}")
-                problems.append(f"{target.path}: $.reference: {what}")
+                leave_out(name, f"{target.path}: $.reference: {what}")
                 del targets[name]
                 broken.add(name)
                 changed = True
-    return targets, problems
+    return targets, problems, left_out
 
 
 def _reference_cycle(start: str, references: dict[str, str | None]) -> list[str] | None:
@@ -439,7 +330,7 @@ def select_targets(names: list[str], folder: Path | None = None) -> tuple[list[T
 
     A named target that does not exist is a UserError; broken target files are returned as problems.
     """
-    all_targets, problems = load_targets(folder)
+    all_targets, problems, left_out = _load_targets(folder)
     if not names:  # on-demand targets (a cold build costs minutes) only when named
         return [t for t in all_targets.values() if not t.on_demand], problems
     chosen = []
@@ -449,9 +340,8 @@ def select_targets(names: list[str], folder: Path | None = None) -> tuple[list[T
         elif name in all_targets:
             chosen.append(all_targets[name])
         else:
-            broken = [p for p in problems if Path(p.split(":")[0]).stem == name]
-            if broken:
-                raise UserError(broken[0])
+            if name in left_out:
+                raise UserError(left_out[name])
             known = ", ".join(sorted(all_targets)) or "none"
             raise UserError(f"unknown target {name!r} (known in {folder or targets_dir()}: {known})")
     return chosen, problems

@@ -1,16 +1,11 @@
 """Test cases (thesis 4.3.1-4.3.3): folders with a run.config, found under a target's test case folders.
 
-A run.config holds ``{"runs": [...]}``; each run configuration has
-
-``name`` (required, unique), ``type`` (``serial`` | ``mpi`` with ``nprocs`` | ``mpi/custom`` with
-``mpi_options``), ``script`` (a file in the folder, or ``{"dem": "scene.json", "liggghts": "in.scene"}``
-chosen by the target's adapter; a run whose script names no file for the adapter is not run by that
-target), ``variables`` (passed as ``-var NAME VALUE``), ``depends_on`` (a run of the same folder that runs
-first; its ``post/`` is copied in), ``post_scripts`` (executables with a shebang, run in order in the run
-folder), ``data`` (``series``, ``plots``, ``textfiles``, thesis listing 4.11), ``timeout`` (s, default
-600), ``thermo_columns`` (mapping onto step, atoms, ke, rke), ``consistency`` (per quantity ``epsilon``
-and/or ``floor``, same units as the quantity), ``vtk`` (``{"density": kg/m^3}`` for the kinetic energy
-of dumps), and the acceptance keys ``expectations`` / ``stability`` (checked by ``harness.config.acceptance``).
+A run.config holds ``{"runs": [...]}``; the fields of a run configuration (name, type, script, variables,
+depends_on, post_scripts, data, timeout, thermo_columns, consistency, vtk, expectations, stability, sweep,
+scaling, profile) are declared once in ``harness.config.runconfig`` (docs/run-config.md is generated from
+it). Here each entry is checked against that schema and what it cannot say (a script or post script that
+is a file of the folder, the fields a run type needs, plot references, dependencies and duplicate names
+between entries), and a sweep or scaling study expands into ordinary runs.
 
 A folder without run.config may still be a test case if the adapter supplies a default configuration
 (``EngineAdapter.default_run_config``, e.g. one serial run per LIGGGHTS ``in.*`` script).
@@ -18,8 +13,9 @@ A folder without run.config may still be a test case if the adapter supplies a d
 Names become folders of the workspace, so run names and test case folder names must be safe single path
 segments (``harness.execution.workspace.segment_problem``); folders with a reserved name (post, restart, meshes,
 scripts, __pycache__) are parts of a test case and never test cases themselves (a run.config in one is
-reported, not silently ignored). Validation never raises for a broken entry: it carries its problems, each
-``FILE: $.runs[i].field: what is wrong``, and is recorded as failed (reason config) while the rest runs.
+reported, not silently ignored). Validation never raises for a broken entry: it carries its problems
+(``harness.config.jsonfile.Problem``: JSON path and message, shown as ``FILE: $.runs[i].field: what is wrong``),
+and is recorded as failed (reason config) while the rest runs.
 """
 from __future__ import annotations
 
@@ -27,47 +23,59 @@ import fnmatch
 import hashlib
 import json
 import os
-import re
 import shlex
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
+from harness.config import acceptance
+
 from harness.config import gitrepo
+
+from harness.analysis import scaling
+
+from harness.config import sweep
+from harness.adapters import get_adapter
 from harness.adapters.base import UserError
-from harness.config.jsonfile import Problems, expect_type, has_non_finite, json_path, load_json, non_finite_problems
+from harness.config import check
+from harness.config.runconfig import DEFAULT_TIMEOUT, RunConfig, RunConfigEntry
+from harness.config.jsonfile import JsonFileError, Problem, Problems, has_non_finite, load_json, non_finite_problems
 from harness.config.targets import WORKING_TREE, TargetDefinition
 from harness.execution.workspace import RESERVED_NAMES, segment_problem, workspace
 
 RUN_CONFIG = "run.config"
-RUN_TYPES = ("serial", "mpi", "mpi/custom")
-DEFAULT_TIMEOUT = 600.0
 #: folders of a test case that never hold a nested test case (thesis 4.3.1)
 NOT_TESTCASES = RESERVED_NAMES
 #: never part of a test case's content: its output folder (but post/restart/), records, version control
 _NOT_CONTENT = {"post", "run.json", ".git", "__pycache__"}
-RUN_KEYS = {"name", "type", "nprocs", "mpi_options", "script", "variables", "depends_on", "post_scripts", "data",
-            "timeout", "thermo_columns", "consistency", "vtk", "expectations", "stability", "description",
-            "sweep", "sweep_point", "scaling", "scaling_point", "profile"}
 #: a pseudo run name that carries a broken run.config into the store and the JUnit report
 CONFIG_RUN = "run.config"
 
 
 @dataclass
 class RunEntry:
-    """One run configuration of a test case, validated for one adapter."""
+    """One run configuration of a test case, validated for one adapter: ``config`` as written (what is
+    hashed and stored), ``spec`` the same typed (``harness.config.runconfig``; None when it has problems),
+    ``found`` its problems in ``file``."""
 
     name: str
     config: dict
     script: str | None = None
-    problems: list[str] = field(default_factory=list)
+    found: list[Problem] = field(default_factory=list)
+    file: Path | None = None
+    spec: RunConfigEntry | None = None
+
+    @property
+    def problems(self) -> list[str]:
+        """The problems as the lines a user reads (``FILE: $.runs[1].timeout: must be positive``)."""
+        return [problem.line(self.file) for problem in self.found]
 
     @property
     def depends_on(self) -> str | None:
-        return self.config.get("depends_on")
+        return self.spec.depends_on if self.spec else self.config.get("depends_on")
 
     @property
     def timeout(self) -> float:
-        return float(self.config.get("timeout", DEFAULT_TIMEOUT))
+        return self.spec.timeout if self.spec else float(self.config.get("timeout", DEFAULT_TIMEOUT))
 
 
 @dataclass
@@ -155,70 +163,6 @@ def testcase_files(folder: Path) -> list[str]:
     return sorted(found)
 
 
-def _validate_data(problems: Problems, data, where: list) -> None:
-    if not expect_type(problems, json_path(*where), data, dict, "an object"):
-        return
-    for key in sorted(set(data) - {"series", "plots", "textfiles"}):
-        problems.add(json_path(*where, key), "unknown field (known: series, plots, textfiles)")
-    series_names = set()
-    series = data.get("series", [])
-    if expect_type(problems, json_path(*where, "series"), series, list, "a list"):
-        for i, item in enumerate(series):
-            at = [*where, "series", i]
-            if not expect_type(problems, json_path(*at), item, dict, "an object"):
-                continue
-            for key in ("name", "file"):
-                if key not in item:
-                    problems.add(json_path(*at, key), "required")
-                else:
-                    expect_type(problems, json_path(*at, key), item[key], str, "a string")
-            if "columns" in item and expect_type(problems, json_path(*at, "columns"), item["columns"], list,
-                                                 "a list of column names"):
-                for j, column in enumerate(item["columns"]):
-                    expect_type(problems, json_path(*at, "columns", j), column, str, "a string")
-            if isinstance(item.get("name"), str):
-                series_names.add(item["name"])
-    plots = data.get("plots", [])
-    if expect_type(problems, json_path(*where, "plots"), plots, list, "a list"):
-        for i, item in enumerate(plots):
-            at = [*where, "plots", i]
-            if not expect_type(problems, json_path(*at), item, dict, "an object"):
-                continue
-            for key in ("name", "xdata", "ydata"):
-                if key not in item:
-                    problems.add(json_path(*at, key), "required")
-            refs = [item.get("xdata")] + (item.get("ydata") if isinstance(item.get("ydata"), list)
-                                          else [item.get("ydata")])
-            for ref in refs:
-                if ref is None:
-                    continue
-                if not isinstance(ref, str) or "." not in ref:
-                    problems.add(json_path(*at), f"data reference {ref!r} must be 'series.column'")
-                elif ref.split(".", 1)[0] not in series_names:
-                    problems.add(json_path(*at), f"data reference {ref!r} names no declared series")
-    textfiles = data.get("textfiles", [])
-    if expect_type(problems, json_path(*where, "textfiles"), textfiles, list, "a list"):
-        for i, item in enumerate(textfiles):
-            at = [*where, "textfiles", i]
-            if isinstance(item, dict):
-                if not isinstance(item.get("file"), str):
-                    problems.add(json_path(*at, "file"), "required (a string)")
-                for key in ("rtol", "atol"):
-                    if key in item:
-                        expect_type(problems, json_path(*at, key), item[key], (int, float), "a number")
-            else:
-                expect_type(problems, json_path(*at), item, str, "a file name or an object with 'file'")
-
-
-def _where_in_entry(at: list, message: str) -> tuple[str, str]:
-    """``"expectations[1].at: must be ..."`` (a path inside the entry, from harness.config.acceptance and
-    harness.config.sweep) -> (``$.runs[i].expectations[1].at``, ``must be ...``)."""
-    inner, sep, what = message.partition(": ")
-    if not sep or " " in inner:
-        return json_path(*at), message
-    return json_path(*at) + ("" if inner.startswith("[") else ".") + inner, what
-
-
 def _file_in_testcase_problem(name: str) -> str | None:
     """A script or post script runs in the run folder, which holds the test case's files: it must be one
     of them (its bytes are part of the content hash), not a path outside."""
@@ -228,188 +172,167 @@ def _file_in_testcase_problem(name: str) -> str | None:
     return None
 
 
-def _validate_entry(problems: Problems, entry: dict, i: int, folder: Path, adapter_name: str) -> str | None:
-    """Validate one run configuration; returns the script for ``adapter_name`` (None: not for it)."""
-    at = ["runs", i]
-    for key in sorted(set(entry) - RUN_KEYS):
-        problems.add(json_path(*at, key), f"unknown field (known: {', '.join(sorted(RUN_KEYS))})")
-    if "name" not in entry:
-        problems.add(json_path(*at, "name"), "required")
-    elif expect_type(problems, json_path(*at, "name"), entry["name"], str, "a string"):
-        # the name becomes the run folder's name: one safe path segment, never '..', '/x' or ''
-        problem = segment_problem(entry["name"])
-        if problem:
-            problems.add(json_path(*at, "name"), f"run name {problem}")
-        elif entry["name"] == CONFIG_RUN:
-            problems.add(json_path(*at, "name"), f"{CONFIG_RUN!r} is the name under which a broken run.config "
-                         "is reported; choose another")
-    if "description" in entry:
-        expect_type(problems, json_path(*at, "description"), entry["description"], str, "a string")
-    run_type = entry.get("type", "serial")
-    if run_type not in RUN_TYPES:
-        problems.add(json_path(*at, "type"), f"unknown run type {run_type!r} (known: {', '.join(RUN_TYPES)})")
-    if run_type == "mpi":
-        if "nprocs" not in entry:
-            problems.add(json_path(*at, "nprocs"), "required for type mpi")
-        elif expect_type(problems, json_path(*at, "nprocs"), entry["nprocs"], int, "an integer") \
-                and entry["nprocs"] < 1:
-            problems.add(json_path(*at, "nprocs"), "must be at least 1")
-    if run_type == "mpi/custom":
-        options = entry.get("mpi_options")
-        if options is None:
-            problems.add(json_path(*at, "mpi_options"), "required for type mpi/custom")
-        elif isinstance(options, list):
-            for j, option in enumerate(options):
-                expect_type(problems, json_path(*at, "mpi_options", j), option, str, "a string")
-        elif expect_type(problems, json_path(*at, "mpi_options"), options, str, "a string or a list of strings"):
-            try:
-                shlex.split(options)  # what the launcher command line is made of (harness.execution.scheduler.mpi_prefix)
-            except ValueError as exc:
-                problems.add(json_path(*at, "mpi_options"), f"cannot be split into arguments ({exc})")
-    for key in ("variables", "thermo_columns", "consistency", "vtk"):
-        if key in entry:
-            expect_type(problems, json_path(*at, key), entry[key], dict, "an object")
-    if isinstance(entry.get("variables"), dict):
-        for name, value in entry["variables"].items():
-            expect_type(problems, json_path(*at, "variables", name), value, (str, int, float), "a string or number")
-    if isinstance(entry.get("thermo_columns"), dict):
-        for name, value in entry["thermo_columns"].items():
-            expect_type(problems, json_path(*at, "thermo_columns", name), value, str, "a column name (string)")
-    if isinstance(entry.get("vtk"), dict):
-        for key, value in entry["vtk"].items():
-            if key != "density":
-                problems.add(json_path(*at, "vtk", key), "unknown field (known: density)")
-            elif expect_type(problems, json_path(*at, "vtk", key), value, (int, float), "a number (kg/m^3)") \
-                    and value <= 0:
-                problems.add(json_path(*at, "vtk", key), "must be positive")
-    if isinstance(entry.get("consistency"), dict):
-        for quantity, setting in entry["consistency"].items():
-            where = json_path(*at, "consistency", quantity)
-            if expect_type(problems, where, setting, dict, "an object with epsilon and/or floor"):
-                for key, value in setting.items():
-                    if key == "ignore":
-                        expect_type(problems, f"{where}.{key}", value, bool, "true or false")
-                    elif key not in ("epsilon", "floor", "rtol", "atol"):
-                        problems.add(f"{where}.{key}", "unknown field (known: epsilon, floor, rtol, atol, ignore)")
-                    elif expect_type(problems, f"{where}.{key}", value, (int, float), "a number") and value < 0:
-                        problems.add(f"{where}.{key}", "must not be negative")
-    if "timeout" in entry and expect_type(problems, json_path(*at, "timeout"), entry["timeout"], (int, float),
-                                          "a number of seconds") and entry["timeout"] <= 0:
-        problems.add(json_path(*at, "timeout"), "must be positive")
-    if "depends_on" in entry:
-        expect_type(problems, json_path(*at, "depends_on"), entry["depends_on"], str, "a run name")
-    post_scripts = entry.get("post_scripts", [])
-    if expect_type(problems, json_path(*at, "post_scripts"), post_scripts, list, "a list of file names"):
-        for j, script in enumerate(post_scripts):
-            if not expect_type(problems, json_path(*at, "post_scripts", j), script, str, "a file name"):
+def _entry_problems(entry: dict, at: tuple, folder: Path, adapter_name: str):
+    """The problems of one run configuration (the schema's, then what it cannot say), the script for
+    ``adapter_name`` (None: not for it) and the typed entry (None when it has problems)."""
+    typed, found = check.validate(RunConfigEntry, entry, at)
+    found += _name_problems(entry.get("name"), at) + _launch_problems(entry, at)
+    found += _post_script_problems(entry.get("post_scripts"), at, folder)
+    found += _plot_problems(entry.get("data"), at)
+    found += acceptance.problems(entry, at) + sweep.problems(entry, at) + scaling.problems(entry, at)
+    script, script_problems = _script(entry, at, folder, adapter_name)
+    return found + script_problems, script, typed
+
+
+def _name_problems(name, at: tuple) -> list[Problem]:
+    """The name becomes the run folder's name: one safe path segment, never '..', '/x' or ''."""
+    if not isinstance(name, str):
+        return []
+    problem = segment_problem(name)
+    if problem:
+        return [Problem((*at, "name"), f"run name {problem}")]
+    if name == CONFIG_RUN:
+        return [Problem((*at, "name"), f"{CONFIG_RUN!r} is the name under which a broken run.config is "
+                                       "reported; choose another")]
+    return []
+
+
+def _launch_problems(entry: dict, at: tuple) -> list[Problem]:
+    """What a run type needs: ``nprocs`` for mpi, ``mpi_options`` a launcher can take for mpi/custom."""
+    run_type, options = entry.get("type"), entry.get("mpi_options")
+    if run_type == "mpi" and "nprocs" not in entry:
+        return [Problem((*at, "nprocs"), "required for type mpi")]
+    if run_type == "mpi/custom" and options is None:
+        return [Problem((*at, "mpi_options"), "required for type mpi/custom")]
+    if run_type == "mpi/custom" and isinstance(options, str):
+        try:
+            shlex.split(options)  # what the launcher command line is made of (harness.execution.planning.mpi_prefix)
+        except ValueError as exc:
+            return [Problem((*at, "mpi_options"), f"cannot be split into arguments ({exc})")]
+    return []
+
+
+def _post_script_problems(scripts, at: tuple, folder: Path) -> list[Problem]:
+    found = []
+    for j, script in enumerate(scripts if isinstance(scripts, list) else []):
+        if not isinstance(script, str):
+            continue
+        problem = _file_in_testcase_problem(script)
+        if problem or not (folder / script).is_file():
+            found.append(Problem((*at, "post_scripts", j), problem or f"post script {script!r} not found in {folder}"))
+    return found
+
+
+def _plot_problems(data, at: tuple) -> list[Problem]:
+    """Each plot's ``xdata`` and ``ydata`` name a column of a declared series (``series.column``)."""
+    if not isinstance(data, dict):
+        return []
+    series = data.get("series") if isinstance(data.get("series"), list) else []
+    names = {item["name"] for item in series if isinstance(item, dict) and isinstance(item.get("name"), str)}
+    found = []
+    plots = data.get("plots") if isinstance(data.get("plots"), list) else []
+    for i, item in enumerate(plots):
+        if not isinstance(item, dict):
+            continue
+        ydata = item.get("ydata")
+        for ref in [item.get("xdata")] + (ydata if isinstance(ydata, list) else [ydata]):
+            if ref is None:
                 continue
-            problem = _file_in_testcase_problem(script)
-            if problem:
-                problems.add(json_path(*at, "post_scripts", j), problem)
-            elif not (folder / script).is_file():
-                problems.add(json_path(*at, "post_scripts", j), f"post script {script!r} not found in {folder}")
-    if "data" in entry:
-        _validate_data(problems, entry["data"], [*at, "data"])
-    # harness.config.acceptance and harness.config.sweep name paths inside the entry; a NaN there is reported already
-    already = {message[len(f"{problems.path}: "):].partition(": ")[0] for message in problems.messages}
-    from harness.config import acceptance, sweep
-    from harness.execution import profiles
-    from harness.analysis import scaling
+            if not isinstance(ref, str) or "." not in ref:
+                found.append(Problem((*at, "data", "plots", i), f"data reference {ref!r} must be 'series.column'"))
+            elif ref.split(".", 1)[0] not in names:
+                found.append(Problem((*at, "data", "plots", i), f"data reference {ref!r} names no declared series"))
+    return found
 
-    inner = (acceptance.validate(entry) if "expectations" in entry or "stability" in entry else []) \
-        + sweep.validate(entry) + scaling.validate(entry) \
-        + (profiles.validate(entry["profile"]) if "profile" in entry else [])
-    for message in inner:
-        where, what = _where_in_entry(at, message)
-        if where not in already:
-            problems.add(where, what)
 
-    script = entry.get("script")
-    if script is None:
-        problems.add(json_path(*at, "script"), "required")
-        return None
+def _script(entry: dict, at: tuple, folder: Path, adapter_name: str) -> tuple[str | None, list[Problem]]:
+    """The script a run of ``adapter_name`` runs (None: the entry is not for it, or has no usable script) and
+    its problems (not a file of the test case). A wrong type is the schema's problem."""
+    script, where = entry.get("script"), (*at, "script")
     if isinstance(script, dict):
-        for key, value in script.items():
-            expect_type(problems, json_path(*at, "script", key), value, str, "a file name")
-        script = script.get(adapter_name)
-        if script is None:
-            return None
-        where = json_path(*at, "script", adapter_name)
-    else:
-        where = json_path(*at, "script")
-        if not expect_type(problems, where, script, str, "a file name or an object per engine adapter"):
-            return None
-        from harness.adapters import get_adapter
-
+        script, where = script.get(adapter_name), (*at, "script", adapter_name)
+    elif isinstance(script, str):
         accepts = getattr(get_adapter(adapter_name), "accepts_script", None)
         if accepts is not None and not accepts(script):
-            return None  # a plain script in another code's input language: not a run for this engine
-    if isinstance(script, str):
-        problem = _file_in_testcase_problem(script)
-        if problem:
-            problems.add(where, problem)
-        elif not (folder / script).is_file():
-            problems.add(where, f"script {script!r} not found in {folder}")
-    return script
+            return None, []  # a plain script in another code's input language: not a run for this engine
+    if not isinstance(script, str):
+        return None, []
+    problem = _file_in_testcase_problem(script)
+    if problem:
+        return script, [Problem(where, problem)]
+    if not (folder / script).is_file():
+        return script, [Problem(where, f"script {script!r} not found in {folder}")]
+    return script, []
 
 
-def _dependency_problems(path: Path, runs: list[tuple[int, dict]]) -> dict[int, list[str]]:
-    """Problems of ``depends_on`` per position in ``runs`` (pairs of the index in the file and the entry):
-    an unknown run, or a cycle (reported for every run on it)."""
-    found: dict[int, list[str]] = {}
-    names = [entry.get("name") for _i, entry in runs if isinstance(entry, dict)]
+def _dependency_problems(items: list) -> dict[int, list[Problem]]:
+    """Problems of ``depends_on`` per position in ``items`` (``_Item``): an unknown run, or a cycle (reported
+    for every run on it)."""
+    found: dict[int, list[Problem]] = {}
+    names = [item.entry.get("name") for item in items if isinstance(item.entry, dict)]
     graph = {}
-    for k, (i, entry) in enumerate(runs):
-        if not isinstance(entry, dict):
+    for k, item in enumerate(items):
+        if not isinstance(item.entry, dict):
             continue
-        dep = entry.get("depends_on")
-        if isinstance(entry.get("name"), str):  # a name of another type is reported by _validate_entry
-            graph.setdefault(entry["name"], dep)
+        dep = item.entry.get("depends_on")
+        if isinstance(item.entry.get("name"), str):  # a name of another type is the schema's problem
+            graph.setdefault(item.entry["name"], dep)
         if isinstance(dep, str) and dep not in names:
-            problems = Problems(path)
-            problems.add(json_path("runs", i, "depends_on"),
-                         f"unknown run {dep!r} (runs here: {', '.join(map(str, names))})")
-            found.setdefault(k, []).extend(problems.messages)
-    for k, (i, entry) in enumerate(runs):
-        if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
+            found.setdefault(k, []).append(Problem(
+                ("runs", item.index, "depends_on"), f"unknown run {dep!r} (runs here: {', '.join(map(str, names))})"))
+    for k, item in enumerate(items):
+        if not isinstance(item.entry, dict) or not isinstance(item.entry.get("name"), str):
             continue
-        start = entry["name"]
+        start = item.entry["name"]
         seen, node = [], start
         while node in graph and isinstance(graph[node], str):
             if node in seen:
                 if node == start:
-                    problems = Problems(path)
-                    cycle = seen + [node]
-                    problems.add(json_path("runs", i, "depends_on"),
-                                 "dependency cycle: " + " -> ".join(map(str, cycle)))
-                    found.setdefault(k, []).extend(problems.messages)
+                    found.setdefault(k, []).append(Problem(("runs", item.index, "depends_on"),
+                                                           "dependency cycle: " + " -> ".join(map(str, seen + [node]))))
                 break
             seen.append(node)
             node = graph[node]
     return found
 
 
-def _without_broken_fields(entry: dict, problems: list[str], i: int) -> dict:
-    """The entry without the fields its problems name. A broken entry is only recorded (reason config),
+def _duplicate_problems(items: list) -> dict[int, list[Problem]]:
+    """A run name used by more than one run (after sweeps and scaling studies expanded)."""
+    names = [item.entry.get("name") for item in items if isinstance(item.entry, dict)]
+    found: dict[int, list[Problem]] = {}
+    for k, item in enumerate(items):
+        name = item.entry.get("name") if isinstance(item.entry, dict) else None
+        if isinstance(name, str) and names.count(name) > 1:
+            found[k] = [Problem(("runs", item.index, "name"), f"run name {name!r} is used more than once")]
+    return found
+
+
+def _without_broken_fields(entry: dict, problems: list[Problem], at: tuple) -> dict:
+    """The entry without the fields its problems are about. A broken entry is only recorded (reason config),
     never run; what is recorded must still be plain JSON of the expected shapes (no NaN for the store,
     no list where the planner reads an object)."""
-    prefix = json_path("runs", i) + "."
-    bad = set()
-    for message in problems:
-        _file, sep, rest = message.partition(": " + prefix)
-        if sep:
-            bad.add(re.split(r"[.\[:]", rest, maxsplit=1)[0])
+    bad = {p.path[len(at)] for p in problems if p.label is None and len(p.path) > len(at) and p.path[:len(at)] == at}
     return {key: value for key, value in entry.items() if key not in bad and not has_non_finite(value)}
 
 
 def _parallelism(adapter_name: str) -> str:
     """How the adapter's code uses more cores (``EngineAdapter.parallelism``); "mpi" when it cannot be told."""
-    from harness.adapters import get_adapter
-
     try:
         return get_adapter(adapter_name).parallelism
     except Exception:  # noqa: BLE001 - an unknown adapter is reported where the target is read
         return "mpi"
+
+
+@dataclass
+class _Item:
+    """One run of a run.config after sweeps and scaling studies expanded: the index of its entry in the file,
+    the run's configuration, and the problems, script and typed entry of that file entry."""
+
+    index: int
+    entry: object
+    problems: list[Problem]
+    script: str | None = None
+    typed: RunConfigEntry | None = None
 
 
 def parse_run_config(data, path: Path, adapter_name: str) -> tuple[list[RunEntry], list[str]]:
@@ -422,79 +345,81 @@ def parse_run_config(data, path: Path, adapter_name: str) -> tuple[list[RunEntry
     ``run.config`` (``CONFIG_RUN``), so they are reported and recorded while the valid runs still run.
     JSON paths count entries as written in the file, also after a sweep expanded into several runs.
     """
-    folder = path.parent
     file_problems = Problems(path)
-    if not isinstance(data, dict):
-        non_finite_problems(file_problems, data)
-        file_problems.add("$", "a run.config must be a JSON object with a 'runs' list")
-        return _with_config_run([], file_problems.messages), file_problems.messages
-    for key in sorted(set(data) - {"runs", "description"}):
-        file_problems.add(json_path(key), "unknown field (known: runs, description)")
-    non_finite_problems(file_problems, {k: v for k, v in data.items() if k != "runs"})
-    if "description" in data:
-        expect_type(file_problems, json_path("description"), data["description"], str, "a string")
-    runs = data.get("runs")
+    runs = _file_level_problems(file_problems, data)
     if runs is None:
-        file_problems.add(json_path("runs"), "required")
-        return _with_config_run([], file_problems.messages), file_problems.messages
-    if not expect_type(file_problems, json_path("runs"), runs, list, "a list of run configurations"):
-        non_finite_problems(file_problems, runs, "runs")
-        return _with_config_run([], file_problems.messages), file_problems.messages
-    # a valid sweep block becomes one ordinary run per value (harness.config.sweep); an invalid one stays to be
-    # reported as one entry. Each item keeps the index of its entry in the file and the entry's NaN problems.
-    from harness.analysis import scaling
-    from harness.config import sweep
+        return _with_config_run([], file_problems.found, path), file_problems.messages
+    items = _items(runs, path.parent, adapter_name)
+    between = _duplicate_problems(items)
+    for k, problems in _dependency_problems(items).items():
+        between.setdefault(k, []).extend(problems)
+    entries, unattached = [], list(file_problems.found)
+    for k, item in enumerate(items):
+        if not isinstance(item.entry, dict):
+            unattached.extend(item.problems)
+            continue
+        at = ("runs", item.index)
+        valid_name = isinstance(item.entry.get("name"), str) \
+            and not any(p.path == (*at, "name") and p.label is None for p in item.problems)
+        name = item.entry["name"] if valid_name else f"runs[{item.index}]"
+        problems = item.problems + between.get(k, [])
+        if item.script is None and not problems and "script" in item.entry:
+            continue  # this run is written for another engine
+        config = _without_broken_fields(item.entry, problems, at) if problems else item.entry
+        typed = None if problems else item.typed
+        entries.append(RunEntry(name, config, item.script, problems, path, typed))
+    reported = file_problems.found + [p for problems in between.values() for p in problems]
+    reported += [p for p in unattached if p not in reported]
+    return _with_config_run(entries, unattached, path), [p.line(path) for p in reported]
 
+
+def _file_level_problems(problems: Problems, data) -> list | None:
+    """The problems of the run.config outside its run entries (added to ``problems``) and its ``runs`` list
+    (None when there is none to read)."""
+    if not isinstance(data, dict):
+        non_finite_problems(problems, data)
+        problems.add((), "a run.config must be a JSON object with a 'runs' list")
+        return None
+    runs = data.get("runs")
+    outside = {key: value for key, value in data.items() if key != "runs"}
+    non_finite_problems(problems, outside)
+    if "runs" in data and not isinstance(runs, list):
+        non_finite_problems(problems, runs, "runs")
+    _typed, found = check.validate(RunConfig, {**outside, **({"runs": []} if isinstance(runs, list) else
+                                                              {} if runs is None else {"runs": runs})})
+    problems.extend(found)
+    return runs if isinstance(runs, list) else None
+
+
+def _items(runs: list, folder: Path, adapter_name: str) -> list[_Item]:
+    """The runs of the file's entries: a valid sweep or scaling block becomes one ordinary run per value
+    (harness.config.sweep, harness.analysis.scaling); an invalid one stays to be reported as one entry."""
     parallelism = _parallelism(adapter_name)
-    items: list[tuple[int, object, list[str]]] = []
+    items = []
     for i, entry in enumerate(runs):
-        non_finite = Problems(path)
-        non_finite_problems(non_finite, entry, "runs", i)
-        expandable = (isinstance(entry, dict) and not non_finite and isinstance(entry.get("name"), str)
-                      and segment_problem(entry["name"]) is None and isinstance(entry.get("variables", {}), dict)
-                      and not sweep.validate(entry) and not scaling.validate(entry))
+        found = Problems(folder)
+        non_finite_problems(found, entry, "runs", i)
+        if not isinstance(entry, dict):
+            if not found:
+                found.extend(check.validate(RunConfig, {"runs": [entry]})[1])
+                found.found = [Problem(("runs", i, *p.path[2:]), p.message) for p in found.found]
+            items.append(_Item(i, entry, found.found))
+            continue
+        problems, script, typed = _entry_problems(entry, ("runs", i), folder, adapter_name)
+        problems = found.found + problems
+        expandable = not found and isinstance(entry.get("name"), str) and not any(
+            p.path[2:3] in (("name",), ("variables",), ("sweep",), ("scaling",)) for p in problems)
         for point in sweep.expand(entry) if expandable else [entry]:
             for scaled in scaling.expand(point, parallelism) if expandable else [point]:
-                items.append((i, scaled, non_finite.messages))
-    between: dict[int, list[str]] = {}   # problems between entries, by position in items
-    names = [entry.get("name") for _i, entry, _p in items if isinstance(entry, dict)]
-    for k, (i, entry, _p) in enumerate(items):
-        name = entry.get("name") if isinstance(entry, dict) else None
-        if isinstance(name, str) and names.count(name) > 1:
-            problems = Problems(path)
-            problems.add(json_path("runs", i, "name"), f"run name {name!r} is used more than once")
-            between.setdefault(k, []).extend(problems.messages)
-    for k, messages in _dependency_problems(path, [(i, entry) for i, entry, _p in items]).items():
-        between.setdefault(k, []).extend(messages)
-    entries = []
-    unattached = list(file_problems.messages)
-    for k, (i, entry, non_finite) in enumerate(items):
-        problems = Problems(path)
-        problems.messages.extend(non_finite)
-        if not isinstance(entry, dict):
-            if not non_finite:
-                expect_type(problems, json_path("runs", i), entry, dict, "a run configuration object")
-            unattached.extend(problems.messages)
-            continue
-        script = _validate_entry(problems, entry, i, folder, adapter_name)
-        problems.messages.extend(between.get(k, []))
-        valid_name = isinstance(entry.get("name"), str) and not any(
-            f": {json_path('runs', i, 'name')}: " in m for m in problems.messages
-            if "used more than once" not in m)
-        name = entry["name"] if valid_name else f"runs[{i}]"
-        if script is None and not problems and "script" in entry:
-            continue  # this run is written for another engine
-        config = _without_broken_fields(entry, problems.messages, i) if problems else entry
-        entries.append(RunEntry(name=name, config=config, script=script, problems=problems.messages))
-    reported = file_problems.messages + [m for messages in between.values() for m in messages]
-    reported += [m for m in unattached if m not in reported]
-    return _with_config_run(entries, unattached), reported
+                point_typed = typed if scaled is entry or problems else check.validate(RunConfigEntry, scaled)[0]
+                items.append(_Item(i, scaled, problems, script, point_typed))
+    return items
 
 
-def _with_config_run(entries: list[RunEntry], unattached: list[str]) -> list[RunEntry]:
+def _with_config_run(entries: list[RunEntry], unattached: list[Problem], path: Path) -> list[RunEntry]:
     """``entries`` and, when some problems concern no run, the pseudo run ``run.config`` carrying them."""
     if unattached:
-        entries = entries + [RunEntry(CONFIG_RUN, {}, problems=list(unattached))]
+        entries = entries + [RunEntry(CONFIG_RUN, {}, found=list(unattached), file=path)]
     return entries
 
 
@@ -505,8 +430,9 @@ def load_testcase(folder: Path, path: str, adapter) -> TestCaseSpec | None:
     if config_file.is_file():
         try:
             data = load_json(config_file, strict=False)
-        except UserError as exc:
-            return TestCaseSpec(path, folder, [RunEntry(CONFIG_RUN, {}, problems=[str(exc)])])
+        except JsonFileError as exc:
+            return TestCaseSpec(path, folder, [RunEntry(CONFIG_RUN, {}, found=[Problem((), exc.problem, "")],
+                                                        file=config_file)])
     else:
         data = adapter.default_run_config(folder)
         if data is None:

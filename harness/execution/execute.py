@@ -1,12 +1,13 @@
 """Executing one run (thesis 4.3.4-4.3.5) in a fresh run folder, without touching the store.
 
-``execute(spec)`` takes a plain dict (so it can be shipped to a Dask worker), prepares the run folder (a
+``execute(spec)`` takes a ``RunSpec`` (picklable, so it can be shipped to a Dask worker), prepares the run folder (a
 copy of the test case folder, the dependency's ``post/`` copied in), runs the engine as a subprocess in its
 own session (a timeout kills the whole process tree), classifies the outcome into the run states and
-failure reasons, post-processes, writes ``run.json`` and returns that record.
+failure reasons, post-processes, writes ``run.json`` and returns that record (a ``RunRecord``).
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 import shutil
 import signal
@@ -21,7 +22,7 @@ from pathlib import Path
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
 from harness.store import runrecord
-from harness.store.runrecord import RunRecord
+from harness.store.runrecord import RunRecord, RunSpec
 from harness.execution.workspace import PROJECT_ROOT, Workspace
 
 RECORD_FILE = runrecord.RECORD_FILE
@@ -130,13 +131,13 @@ def signal_name(number: int) -> str:
         return f"signal {number}"
 
 
-def prepare_folder(spec: dict) -> Path:
+def prepare_folder(spec: RunSpec) -> Path:
     """A fresh run folder holding the test case's files (``harness.config.testcases.testcase_files``, the files its
     content hash covers) and the dependency's ``post/``. Only a folder inside the workspace is replaced."""
-    folder = Path(spec["folder"])
-    Workspace.at(spec["workspace"]).fresh_folder(folder)
-    source_folder = Path(spec["source_folder"])
-    for rel in spec["files"]:
+    folder = Path(spec.folder)
+    Workspace.at(spec.workspace).fresh_folder(folder)
+    source_folder = Path(spec.source_folder)
+    for rel in spec.files:
         source, destination = source_folder / rel, folder / rel
         destination.parent.mkdir(parents=True, exist_ok=True)
         if source.is_symlink():
@@ -144,7 +145,7 @@ def prepare_folder(spec: dict) -> Path:
         else:
             shutil.copy2(source, destination)
     (folder / "post").mkdir(exist_ok=True)
-    dependency = spec.get("dependency_folder")
+    dependency = spec.dependency_folder
     if dependency:
         source = Path(dependency) / "post"
         if source.is_dir():
@@ -152,29 +153,26 @@ def prepare_folder(spec: dict) -> Path:
     return folder
 
 
-def base_record(spec: dict) -> dict:
-    """A fresh record of the run ``spec`` describes, in the layout ``harness.store.runrecord.RunRecord`` declares."""
-    return RunRecord.from_spec(spec).to_dict()
+def base_record(spec: RunSpec) -> RunRecord:
+    """A fresh record of the run ``spec`` describes."""
+    return spec.record()
 
 
-def write_record(record: dict) -> None:
-    folder = Path(record["folder"])
+def write_record(record: RunRecord) -> None:
+    folder = Path(record.folder)
     if folder.is_dir():
         tmp = folder / (RECORD_FILE + ".tmp")
         tmp.write_text(runrecord.dumps(record))
         os.replace(tmp, folder / RECORD_FILE)
 
 
-def fail(record: dict, reason: str, message: str) -> dict:
-    record["state"] = "failed"
-    record["failure_reason"] = reason
-    record["failure_message"] = message
-    return record
+def fail(record: RunRecord, reason: str, message: str) -> RunRecord:
+    return record.fail(reason, message)
 
 
-def _run_engine(spec: dict, folder: Path, record: dict) -> tuple[int | None, bool]:
+def _run_engine(spec: RunSpec, folder: Path, record: RunRecord) -> tuple[int | None, bool]:
     """Run the command; returns (exit code, timed out)."""
-    ws = Workspace.at(spec["workspace"])
+    ws = Workspace.at(spec.workspace)
     (ws.home / "tmp").mkdir(parents=True, exist_ok=True)
     session = Path(tempfile.mkdtemp(prefix="mpi-", dir=ws.home / "tmp"))
     try:
@@ -183,20 +181,20 @@ def _run_engine(spec: dict, folder: Path, record: dict) -> tuple[int | None, boo
         ws.remove_tree(session)
 
 
-def _run_engine_in(spec: dict, folder: Path, session: Path) -> tuple[int | None, bool]:
+def _run_engine_in(spec: RunSpec, folder: Path, session: Path) -> tuple[int | None, bool]:
     env = dict(os.environ)
-    env.update(spec.get("environment") or {})
+    env.update(spec.environment)
     # Open MPI (LIGGGHTS, LAMMPS, mpirun) keeps a session folder per user in /tmp; engines starting at the same
     # moment race to create it ("mkdir ... File exists") and one dies: each run gets its own
     env["OMPI_MCA_orte_tmpdir_base"] = str(session)
     env[TOKEN_VARIABLE] = token = new_token()
-    timeout = float(spec.get("timeout") or 600)
+    timeout = spec.timeout
     with open(folder / STDOUT, "wb") as out, open(folder / STDERR, "wb") as err:
         try:
-            process = subprocess.Popen(spec["command"], cwd=folder, env=env, stdout=out, stderr=err,
+            process = subprocess.Popen(spec.command, cwd=folder, env=env, stdout=out, stderr=err,
                                        stdin=subprocess.DEVNULL, start_new_session=True)
         except OSError as exc:
-            err.write(f"cannot start {spec['command'][0]}: {exc.strerror}\n".encode())
+            err.write(f"cannot start {spec.command[0]}: {exc.strerror}\n".encode())
             return 127, False
         with _running_lock:
             _running[str(folder)] = process.pid
@@ -219,7 +217,7 @@ def _run_engine_in(spec: dict, folder: Path, session: Path) -> tuple[int | None,
                 _running.pop(str(folder), None)
 
 
-def _run_post_scripts(spec: dict, folder: Path, record: dict) -> bool:
+def _run_post_scripts(spec: RunSpec, folder: Path, record: RunRecord) -> bool:
     """Run the post scripts in order in the run folder (thesis 4.3.5); False if one failed.
 
     Each runs in its own session like the engine; when it ends - normally or by its timeout - its whole
@@ -227,13 +225,13 @@ def _run_post_scripts(spec: dict, folder: Path, record: dict) -> bool:
     a child still holding its output cannot keep the harness waiting.
     """
     env = dict(os.environ)
-    env.update(spec.get("environment") or {})
+    env.update(spec.environment)
     # post scripts may use the harness' own readers (harness.execution.postprocess ...) whatever the build's environment
     # puts on PYTHONPATH (the bundled engine's build sets it to its exported source)
     env["PYTHONPATH"] = os.pathsep.join(p for p in (env.get("PYTHONPATH"), str(PROJECT_ROOT)) if p)
-    timeout = float(spec.get("timeout") or 600)
+    timeout = spec.timeout
     with open(folder / POST_LOG, "ab") as log:
-        for script in spec["config"].get("post_scripts", []):
+        for script in spec.config.get("post_scripts", []):
             path = folder / script
             if not path.is_file():
                 fail(record, "post_script", f"post script {script!r} not found")
@@ -266,7 +264,7 @@ def _run_post_scripts(spec: dict, folder: Path, record: dict) -> bool:
     return True
 
 
-def _run_post_script(path: Path, folder: Path, env: dict, log, timeout: float) -> tuple[int | None, bool, bytes]:
+def _run_post_script(path: Path, folder: Path, env: RunSpec, log, timeout: float) -> tuple[int | None, bool, bytes]:
     """(exit code or None when it cannot start, timed out, stderr). stderr goes to an unnamed file, not a
     pipe: a pipe stays open as long as any child holds it, a file is read once the script ended."""
     env = {**env, TOKEN_VARIABLE: (token := new_token())}
@@ -299,7 +297,7 @@ def _run_post_script(path: Path, folder: Path, env: dict, log, timeout: float) -
         return code, timed_out, err.read()
 
 
-def _classify(record: dict, code: int | None, timed_out: bool, scan, timeout: float) -> None:
+def _classify(record: RunSpec, code: int | None, timed_out: bool, scan, timeout: float) -> None:
     errors = scan.errors
     detail = f": {errors[-1]}" if errors else ""
     if timed_out:
@@ -307,89 +305,89 @@ def _classify(record: dict, code: int | None, timed_out: bool, scan, timeout: fl
     elif code is not None and code < 0:
         fail(record, "signal", f"killed by {signal_name(-code)}{detail}")
     elif code:
-        if not detail and record["stderr_tail"].strip():
-            detail = ": " + record["stderr_tail"].strip().splitlines()[-1][:300]
+        if not detail and record.stderr_tail.strip():
+            detail = ": " + record.stderr_tail.strip().splitlines()[-1][:300]
         fail(record, "exit_code", f"exit code {code}{detail}")
     elif errors:
         fail(record, "error_line", f"exit code 0 but the log has an error: {errors[0]}")
 
 
-def execute(spec: dict) -> dict:
+def execute(spec: RunSpec) -> RunRecord:
     """Run one run configuration; returns the run record (also written to ``run.json``)."""
     record = base_record(spec)
-    adapter = get_adapter(spec["adapter"])
+    adapter = get_adapter(spec.adapter)
     try:
         folder = prepare_folder(spec)
     except (OSError, UserError) as exc:
         # a full disk, a file where a folder belongs, a folder the workspace refuses to replace: this run
         # fails (reason config: its folder is part of its configuration), the others go on
         detail = f"{exc.strerror} ({exc.filename})" if isinstance(exc, OSError) and exc.strerror else str(exc)
-        record["finished"] = now_iso()
-        return fail(record, "config", f"cannot prepare run folder {spec['folder']}: {detail}")
-    record["started"] = now_iso()
+        record.finished = now_iso()
+        return fail(record, "config", f"cannot prepare run folder {spec.folder}: {detail}")
+    record.started = now_iso()
     # what the run configuration declares to the engine itself (a relaxed blow-up limit: the adapter knows how)
-    declared = adapter.run_environment(spec.get("config") or {})
+    declared = adapter.run_environment(spec.config)
     if declared:
-        spec = {**spec, "environment": {**(spec.get("environment") or {}), **declared}}
+        spec = dataclasses.replace(spec, environment={**spec.environment, **declared})
     start = time.perf_counter()
     code, timed_out = _run_engine(spec, folder, record)
-    record["wall_time"] = time.perf_counter() - start
-    record["finished"] = now_iso()
-    record["exit_code"] = code
+    record.wall_time = time.perf_counter() - start
+    record.finished = now_iso()
+    record.exit_code = code
     # a run that outlived its timeout failed, however short the timeout: the process may have ended between
     # the moment the wait gave up and the moment it was killed, or before the first poll of a tiny timeout
-    timed_out = timed_out or record["wall_time"] > float(spec.get("timeout") or 600)
+    timed_out = timed_out or record.wall_time > spec.timeout
     if _interrupted.is_set():
         fail(record, "interrupted", "the harness was interrupted")
         write_record(record)
         return record
-    record["stderr_tail"] = tail(folder / STDERR, 20)
-    record["log_tail"] = tail(folder / adapter.log_file()) or tail(folder / STDOUT)
+    record.stderr_tail = tail(folder / STDERR, 20)
+    record.log_tail = tail(folder / adapter.log_file()) or tail(folder / STDOUT)
     from harness.adapters.base import LogScan
     from harness.adapters.dem import scan_lines
 
     missing = None
     try:
         scan = adapter.scan_log(folder)
-        record["timing"] = adapter.read_timing(folder)
+        record.timing = adapter.read_timing(folder)
     except UserError as exc:  # no log at all: the engine did not start, or died first
         scan, missing = LogScan(), str(exc)
-    stderr_scan = scan_lines(record["stderr_tail"])
+    stderr_scan = scan_lines(record.stderr_tail)
     scan.errors += [line for line in stderr_scan.errors if line not in scan.errors]
-    record["warning_count"] = len(scan.warnings)
-    record["warnings"] = scan.warnings[:50]
-    record["stepping_time"] = runrecord.stepping_time_of(record["timing"])
+    record.warning_count = len(scan.warnings)
+    record.warnings = scan.warnings[:50]
+    record.stepping_time = runrecord.stepping_time_of(record.timing)
     try:
-        record["breakdown"] = adapter.read_breakdown(folder, record["timing"])
+        record.breakdown = adapter.read_breakdown(folder, record.timing)
     except UserError:
-        record["breakdown"] = {}
-    if spec.get("profile"):
+        record.breakdown = {}
+    if spec.profile:
         from harness.execution import profiles
 
         profiles.finish(spec, folder, record)
-    _classify(record, code, timed_out, scan, float(spec.get("timeout") or 600))
-    if int(spec.get("repeat") or 1) > 1 and record["state"] != "failed" and record["stepping_time"]:
+    _classify(record, code, timed_out, scan, spec.timeout)
+    if spec.repeat > 1 and record.state != "failed" and record.stepping_time:
         _repeat(spec, folder, record, adapter)
-    if missing and record["state"] != "failed":
+    if missing and record.state != "failed":
         fail(record, "missing_output", missing)
     try:
         postprocess_run(spec, folder, record, adapter)
     except Exception as exc:  # noqa: BLE001 - a post-processing bug must not lose the run
-        if record["state"] != "failed":
+        if record.state != "failed":
             fail(record, "post_processing", f"{type(exc).__name__}: {exc}")
     write_record(record)
     return record
 
 
-def _repeat(spec: dict, folder: Path, record: dict, adapter) -> None:
+def _repeat(spec: RunSpec, folder: Path, record: RunSpec, adapter) -> None:
     """``harness run --repeat N``: run the engine N - 1 more times in the run folder (the engine's results
     are the same bytes each time) and keep every stepping time in ``timing["stepping_repeats"]`` (s, in
     order); the run's stepping time becomes their median. A repeat that fails or times out ends the
     series (the first run's outcome stands)."""
     import statistics
 
-    times = [record["stepping_time"]]
-    for _ in range(int(spec["repeat"]) - 1):
+    times = [record.stepping_time]
+    for _ in range(spec.repeat - 1):
         code, timed_out = _run_engine(spec, folder, record)
         if code != 0 or timed_out or _interrupted.is_set():
             break
@@ -399,30 +397,30 @@ def _repeat(spec: dict, folder: Path, record: dict, adapter) -> None:
             break
         if again:
             times.append(again)
-    record["timing"] = {**record["timing"], "stepping_repeats": times}
-    record["stepping_time"] = statistics.median(times)
+    record.timing = {**record.timing, "stepping_repeats": times}
+    record.stepping_time = statistics.median(times)
 
 
-def postprocess_run(spec: dict, folder: Path, record: dict, adapter) -> None:
+def postprocess_run(spec: RunSpec, folder: Path, record: RunSpec, adapter) -> None:
     """Thermo (kept even for failed runs), then for successful runs post scripts, data, VTK, acceptance."""
     from harness.execution.postprocess import frame_to_series, non_finite_columns, read_declared, vtk_aggregates
 
-    config = spec["config"]
-    mapping = spec.get("thermo_columns") or None
+    config = spec.config
+    mapping = spec.thermo_columns or None
     thermo = None
     try:
         thermo = adapter.read_thermo(folder, mapping)
     except UserError as exc:
-        if record["state"] != "failed":
+        if record.state != "failed":
             fail(record, "missing_output", str(exc))
     if thermo is not None:
-        record["series"].append(frame_to_series("thermo", "thermo", thermo, "step"))
+        record.series.append(frame_to_series("thermo", "thermo", thermo, "step"))
         bad = non_finite_columns(thermo)
-        if bad and record["state"] != "failed":
+        if bad and record.state != "failed":
             fail(record, "non_finite", f"non-finite values in thermo column(s) {', '.join(bad)}")
-    if record["state"] == "failed":
+    if record.state == "failed":
         return
-    record["state"] = "executed"
+    record.state = "executed"
     if not _run_post_scripts(spec, folder, record):
         return
     try:
@@ -431,13 +429,13 @@ def postprocess_run(spec: dict, folder: Path, record: dict, adapter) -> None:
         if files:
             density = (config.get("vtk") or {}).get("density")
             dumps = vtk_aggregates(files, density)
-            record["series"].append(frame_to_series("vtk", "dumps", dumps, "step",
+            record.series.append(frame_to_series("vtk", "dumps", dumps, "step",
                                                     {"files": [str(p.relative_to(folder)) for p in files],
                                                      "units": dumps.attrs.get("units", {})}))
     except UserError as exc:
         fail(record, "post_processing", str(exc))
         return
-    record["series"].extend(stored)
+    record.series.extend(stored)
     frames["thermo"] = thermo
     overlaps = adapter.largest_overlaps(folder)
     if overlaps:  # the engine's own report, for the default blow-up check (harness.config.acceptance)
@@ -451,10 +449,10 @@ def postprocess_run(spec: dict, folder: Path, record: dict, adapter) -> None:
         acceptance = None
     if acceptance is not None:  # the default stability checks apply to every run (harness.config.acceptance)
         verdicts = acceptance.evaluate(config, frames, folder)
-        record["verdicts"] = [{"ok": bool(v.ok), "reason": v.reason, "message": v.message} for v in verdicts]
+        record.verdicts = [{"ok": bool(v.ok), "reason": v.reason, "message": v.message} for v in verdicts]
         bad = [v for v in verdicts if not v.ok]
         if bad:
             reason = bad[0].reason if bad[0].reason in ("expectation", "stability") else "expectation"
             fail(record, reason, "; ".join(v.message for v in bad))
             return
-    record["state"] = "post_processed"
+    record.state = "post_processed"

@@ -1,7 +1,8 @@
-"""The run spec of one run configuration: everything a worker needs to execute it, as a plain dict
-(picklable, so Dask workers get it) - its command line with the MPI launcher prefix, its run folder, its
-environment and the build it runs. ``harness run`` plans with it (``harness.execution.scheduler``), ``harness.analysis.coverage``
-records the run configurations not executed with it.
+"""The run spec of one run configuration: everything a worker needs to execute it
+(``harness.store.runrecord.RunSpec``, picklable, so Dask workers get it) - its command line with the MPI
+launcher prefix, its run folder, its environment and the build it runs. ``harness run`` plans with it
+(``harness.execution.scheduler``); ``harness.analysis.coverage`` records the run configurations not executed
+with it.
 """
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from harness.analysis import scaling
 from harness.config.targets import TargetDefinition
 from harness.config.testcases import RunEntry, TestCaseSpec
 from harness.execution.workspace import workspace
+from harness.store.runrecord import RunSpec
 
 
 def mpi_prefix(target: TargetDefinition, config: dict) -> list[str] | None:
@@ -50,23 +52,20 @@ def build_info(build) -> dict:
 
 
 def make_spec(target: TargetDefinition, build_info: dict, adapter, machine: str, testcase: TestCaseSpec,
-              entry: RunEntry) -> dict:
+              entry: RunEntry) -> RunSpec:
     config = entry.config
     mapping = dict(target.thermo_columns)
     mapping.update(config.get("thermo_columns") or {})
     variables = {str(k): v for k, v in (config.get("variables") or {}).items()}
     content = testcase.content_hash(entry.name)
-    spec = {
-        "machine": machine, "target": target.name, "target_definition": target.as_dict(),
-        "build": build_info, "testcase": testcase.path, "run": entry.name, "testcase_hash": content,
-        "config": config, "adapter": adapter.name, "thermo_columns": mapping,
-        "environment": {**build_info["environment"], **scaling.thread_environment(config)},
-        "workspace": str(workspace().home),
-        "folder": str(run_folder(machine, target.name, build_info["key"], testcase.path, entry.name, content)),
-        "source_folder": str(testcase.folder), "files": testcase.files(), "timeout": entry.timeout,
-        "command": [],
-    }
+    spec = RunSpec(
+        machine=machine, target=target.name, target_definition=target.as_dict(), build=build_info,
+        testcase=testcase.path, run=entry.name, testcase_hash=content, config=config, adapter=adapter.name,
+        thermo_columns=mapping, environment={**build_info["environment"], **scaling.thread_environment(config)},
+        workspace=str(workspace().home),
+        folder=str(run_folder(machine, target.name, build_info["key"], testcase.path, entry.name, content)),
+        source_folder=str(testcase.folder), files=testcase.files(), timeout=entry.timeout)
     if entry.script is not None and not entry.problems:
-        spec["command"] = adapter.command(build_info["executable"], entry.script, variables, adapter.log_file(),
-                                          mpi_prefix(target, config))
+        spec.command = adapter.command(build_info["executable"], entry.script, variables, adapter.log_file(),
+                                       mpi_prefix(target, config))
     return spec

@@ -3,7 +3,7 @@
 A profiled run (``harness run --profile``, or ``"profile": true`` in its run.config entry) of a native code is
 started under ``perf record -g`` (Linux perf: samples of the call stack, by default 249 per second, of the code
 and every process it starts, so all MPI ranks under ``mpirun``; callers found by DWARF unwinding, see
-``CALL_GRAPHS``); afterwards ``perf script`` prints the samples
+``harness.config.runconfig.CALL_GRAPHS``); afterwards ``perf script`` prints the samples
 and :func:`fold_perf_script` folds them into the *folded stacks* format of Brendan Gregg's flame graphs, one
 line per distinct stack, root first, with its sample count::
 
@@ -27,34 +27,12 @@ import subprocess
 from collections import Counter
 from pathlib import Path
 
+from harness.config.runconfig import PERF_FREQUENCY
 from harness.analysis.breakdown import section_seconds
 
 FOLDED_FILE = "profile.folded"
 PERF_DATA = "perf.data"
-#: samples per second per thread: enough for runs of seconds; a DWARF sample copies 8 kB of stack, so this
-#: bounds perf.data to about 2 MB per second and rank
-PERF_FREQUENCY = 249
-#: how perf finds the callers: "dwarf" unwinds from debug information and works for binaries built without
-#: frame pointers (Debian's liggghts and lmp); "fp" (perf record -g's default) is cheaper but needs a code
-#: compiled with -fno-omit-frame-pointer, else most stacks end after one frame
-CALL_GRAPHS = ("dwarf", "fp")
 DEFAULT_SETTINGS = {"call_graph": "dwarf", "frequency": PERF_FREQUENCY}
-
-
-def validate(value) -> list[str]:
-    """Problems of a run.config entry's ``profile`` field: true/false or ``{"call_graph", "frequency"}``."""
-    if isinstance(value, bool):
-        return []
-    if not isinstance(value, dict):
-        return ["profile: must be true, false or an object with call_graph (dwarf, fp) and frequency (Hz)"]
-    problems = [f"profile.{key}: unknown field (known: call_graph, frequency)"
-                for key in sorted(set(value) - {"call_graph", "frequency"})]
-    if value.get("call_graph", "dwarf") not in CALL_GRAPHS:
-        problems.append(f"profile.call_graph: must be one of {', '.join(CALL_GRAPHS)}")
-    frequency = value.get("frequency", PERF_FREQUENCY)
-    if isinstance(frequency, bool) or not isinstance(frequency, int) or not 1 <= frequency <= 20000:
-        problems.append("profile.frequency: must be an integer number of samples per second, 1 to 20000")
-    return problems
 
 
 def settings(value) -> dict | None:
@@ -88,27 +66,28 @@ def perf_command(command: list[str], options: dict | None = None, output: str = 
              "-o", output, "--"] + list(command))
 
 
-def enable(spec: dict, adapter, value) -> None:
-    """Make the run ``spec`` (``harness.execution.scheduler.make_spec``) a profiled run: its command under perf for a native
+def enable(spec, adapter, value) -> None:
+    """Make the run ``spec`` (``harness.execution.planning.make_spec``) a profiled run: its command under perf for a native
     code, its phase timers for the bundled engine (``EngineAdapter.profiler``)."""
     options = settings(value if value not in (None, False) else True)
-    spec["profile"] = {"profiler": adapter.profiler, **options}
+    spec.profile = {"profiler": adapter.profiler, **options}
     if adapter.profiler == "perf":
         problem = perf_available()
         if problem:  # the run runs unprofiled and says why (finish), rather than failing to start
-            spec["profile"]["problem"] = problem
-        elif spec.get("command"):
-            spec["command"] = perf_command(spec["command"], options)
+            spec.profile["problem"] = problem
+        elif spec.command:
+            spec.command = perf_command(spec.command, options)
 
 
-def finish(spec: dict, folder: Path, record: dict) -> None:
-    """After a profiled run: its folded stacks in ``profile.folded`` and ``record["profile"]`` naming them.
+def finish(spec, folder: Path, record) -> None:
+    """After a profiled run (``spec``, a ``RunSpec``): its folded stacks in ``profile.folded`` and the
+    ``RunRecord``'s ``profile`` naming them.
     A profile that cannot be made is a warning of the run, never its failure."""
-    how = (spec.get("profile") or {}).get("profiler")
+    how = (spec.profile or {}).get("profiler")
     if not how:
         return
-    if spec["profile"].get("problem"):
-        record.setdefault("warnings", []).append(f"WARNING: no profile: {spec['profile']['problem']}")
+    if spec.profile.get("problem"):
+        record.warnings.append(f"WARNING: no profile: {spec.profile['problem']}")
         return
     try:
         if how == "perf":
@@ -116,13 +95,13 @@ def finish(spec: dict, folder: Path, record: dict) -> None:
                 raise RuntimeError("perf wrote no perf.data")
             stacks = fold_perf_data(Path(folder))
         else:
-            stacks = phase_stacks(record.get("breakdown") or {})
+            stacks = phase_stacks(record.breakdown)
         if not stacks:
             raise RuntimeError("no samples")
         write_folded(Path(folder) / FOLDED_FILE, stacks)
-        record["profile"] = FOLDED_FILE
+        record.profile = FOLDED_FILE
     except (OSError, RuntimeError, subprocess.SubprocessError) as exc:
-        record.setdefault("warnings", []).append(f"WARNING: no profile: {exc}")
+        record.warnings.append(f"WARNING: no profile: {exc}")
 
 
 def _frame_name(symbol: str, dso: str) -> str:

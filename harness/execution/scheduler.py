@@ -16,9 +16,11 @@ import threading
 import time
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor
 from concurrent.futures import wait as wait_futures
+import dataclasses
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import NamedTuple
 
 from filelock import Timeout
 
@@ -35,6 +37,7 @@ from harness.execution.workspace import workspace
 from harness.report.textout import format_table  # noqa: F401  (the commands import it from here)
 from harness.store.records import store_record
 from harness.store.rules import SUCCESS_STATES, effective_state
+from harness.store.runrecord import RunRecord, RunSpec
 
 
 @dataclass
@@ -52,21 +55,31 @@ class RunOptions:
     profile: bool = False              # record a profile of every run (harness.execution.profiles)
 
 
+class Outcome(NamedTuple):
+    """What a finished run tells the runs that depend on it."""
+
+    state: str
+    failure_reason: str
+    folder: str
+
+
 @dataclass
 class Task:
     key: tuple[str, str, str, str]     # (target, test case path, run name, build commit)
-    spec: dict
+    spec: RunSpec
     depends_on: tuple | None = None
     dependency_folder: str | None = None
     lock: object = None                # held from submission until the record is stored
     #: when this process chose to execute the run (UTC): a record finished after it was stored by another
     #: process sharing the workspace, and the run is not executed again
     planned: datetime = field(default_factory=lambda: datetime.now(timezone.utc))
+    #: the record of a run that is not executed (its configuration has problems): stored as it is
+    record: RunRecord | None = None
 
 
 @dataclass
 class RunReport:
-    records: list[dict] = field(default_factory=list)
+    records: list[RunRecord] = field(default_factory=list)
     problems: list[str] = field(default_factory=list)
     skipped: int = 0
     elapsed: float = 0.0
@@ -74,8 +87,8 @@ class RunReport:
     in_use: list = field(default_factory=list)
 
     @property
-    def failed(self) -> list[dict]:
-        return [r for r in self.records if r["state"] == "failed"]
+    def failed(self) -> list[RunRecord]:
+        return [r for r in self.records if r.failed]
 
 
 def _needs_run(existing, options: RunOptions) -> bool:
@@ -141,17 +154,16 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
             return
         spec = make_spec(target, info, adapter, options.machine, testcase, entry)
         if options.repeat > 1:
-            spec["repeat"] = options.repeat
+            spec.repeat = options.repeat
         if (options.profile or entry.config.get("profile")) and not entry.problems:
 
             profiles.enable(spec, adapter, entry.config.get("profile"))
-        previous = existing.get((testcase.path, entry.name, spec["testcase_hash"]))
+        previous = existing.get((testcase.path, entry.name, spec.testcase_hash))
         if entry.problems:
             report.problems.extend(entry.problems)
             record = ex.fail(ex.base_record(spec), "config", "; ".join(entry.problems))
-            record["finished"] = ex.now_iso()
-            tasks[key] = Task(key, spec)
-            tasks[key].spec["_record"] = record
+            record.finished = ex.now_iso()
+            tasks[key] = Task(key, spec, record=record)
             return
         if not (force or _needs_run(previous, options)):
             report.skipped += 1
@@ -179,7 +191,7 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
 THREAD_VARIABLES = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS")
 
 
-def with_thread_share(spec: dict, slots: int) -> dict:
+def with_thread_share(spec: RunSpec, slots: int) -> RunSpec:
     """spec whose engine runs on its share of this machine's cores when `slots` runs go at once: a run that
     starts a thread per core while another does the same oversubscribes the cores, and threads that wait for
     each other at every step then run many times slower (measured on 2 cores, the 6,000-particle hopper of
@@ -187,11 +199,11 @@ def with_thread_share(spec: dict, slots: int) -> dict:
     environment or by the build is kept."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     share = str(max(1, cores // max(1, slots)))
-    environment = dict(spec.get("environment") or {})
+    environment = dict(spec.environment)
     for name in THREAD_VARIABLES:
         if name not in environment and name not in os.environ:
             environment[name] = share
-    return {**spec, "environment": environment}
+    return dataclasses.replace(spec, environment=environment)
 
 
 class _Pool:
@@ -215,7 +227,7 @@ class _Pool:
             self.executor = ThreadPoolExecutor(max_workers=max(1, jobs))
             self.slots = max(1, jobs)
 
-    def submit(self, spec: dict):
+    def submit(self, spec: RunSpec):
         if self.client is not None:
             return self.client.submit(ex.execute, spec, pure=False)
         return self.executor.submit(ex.execute, with_thread_share(spec, self.slots))
@@ -239,21 +251,20 @@ class _Pool:
             self.executor.shutdown(wait=True, cancel_futures=True)
 
 
-def _progress(done: int, total: int, record: dict, out) -> None:
-    reason = f" ({record['failure_reason']}: {record['failure_message'][:120]})" if record["state"] == "failed" \
-        else ""
-    wall = f" {record['wall_time']:.2f} s" if record.get("wall_time") is not None else ""
+def _progress(done: int, total: int, record: RunRecord, out) -> None:
+    reason = f" ({record.failure_reason}: {record.failure_message[:120]})" if record.failed else ""
+    wall = f" {record.wall_time:.2f} s" if record.wall_time is not None else ""
     width = 20
     bar = "#" * (width * done // max(total, 1))
-    out.write(f"[{bar:<{width}}] {done}/{total} {record['target']} {record['testcase']}/{record['run']}: "
-              f"{record['state']}{reason}{wall}\n")
+    out.write(f"[{bar:<{width}}] {done}/{total} {record.target} {record.testcase}/{record.run}: "
+              f"{record.state}{reason}{wall}\n")
     out.flush()
 
 
 def _run_lock(task: Task):
     """The cross-process lock of a run folder: one harness process at a time runs a given run."""
     if task.lock is None:
-        digest = hashlib.sha1(task.spec["folder"].encode()).hexdigest()[:20]
+        digest = hashlib.sha1(task.spec.folder.encode()).hexdigest()[:20]
         task.lock = workspace().lock(f"run-{digest}")
     return task.lock
 
@@ -276,9 +287,8 @@ def _claim(task: Task, options: RunOptions, waiting: set, out) -> str:
     # Another process may have run it since this one planned it: one that held the lock while this one
     # waited, or one that claimed, ran and released it before this process got to the task at all.
     spec = task.spec
-    row = Run.objects.filter(machine__name=spec["machine"], build_id=spec["build"]["id"],
-                             testcase__path=spec["testcase"], name=spec["run"],
-                             testcase_hash=spec["testcase_hash"]).first()
+    row = Run.objects.filter(machine__name=spec.machine, build_id=spec.build["id"], testcase__path=spec.testcase,
+                             name=spec.run, testcase_hash=spec.testcase_hash).first()
     if row is not None and row.finished is not None:
         again = RunOptions(**{**options.__dict__, "rerun_all": False})
         if row.finished >= task.planned or (task.key in waiting and not _needs_run(row, again)):
@@ -309,8 +319,8 @@ def _duration(seconds: float) -> str:
     return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
 
 
-def _record_key(record: dict) -> tuple:
-    return (record["target"], record["testcase"], record["run"], (record.get("build") or {}).get("commit", ""))
+def _record_key(record: RunRecord) -> tuple:
+    return (record.target, record.testcase, record.run, record.build.get("commit", ""))
 
 
 def execute_tasks(tasks: list[Task], options: RunOptions, report: RunReport, out=None) -> None:
@@ -330,7 +340,7 @@ class _Execution:
         self.tasks, self.options, self.report, self.out = tasks, options, report, out
         self.total = len(tasks)
         self.done_count = 0
-        self.results: dict[tuple, dict] = {}
+        self.results: dict[tuple, Outcome] = {}
         self.waiting: set = set()
         self.durations: list[float] = []
         self.started = time.monotonic()
@@ -341,8 +351,8 @@ class _Execution:
 
     def run(self) -> None:
         for task in self.tasks:
-            if "_record" in task.spec:
-                self.finish(task.spec.pop("_record"))
+            if task.record is not None:
+                self.finish(task.record)
             else:
                 self.pending.append(task)
         if not self.pending:
@@ -365,7 +375,7 @@ class _Execution:
             for task in self.tasks:
                 _release(task)
 
-    def finish(self, record: dict, task: Task | None = None) -> None:
+    def finish(self, record: RunRecord, task: Task | None = None) -> None:
         """Store a run's record (releasing its claim) and show the progress."""
         try:
             store_record(record)
@@ -373,19 +383,19 @@ class _Execution:
             if task is not None:
                 _release(task)
         self.report.records.append(record)
-        self.results[_record_key(record)] = record
-        self.durations.append(record.get("wall_time") or 0.0)
+        self.results[_record_key(record)] = Outcome(record.state, record.failure_reason, record.folder)
+        self.durations.append(record.wall_time or 0.0)
         self.done_count += 1
         _progress(self.done_count, self.total, record, self.out)
 
-    def dependency(self, task: Task) -> tuple[bool, dict | None]:
+    def dependency(self, task: Task) -> tuple[bool, Outcome | None]:
         """(whether ``task`` can start now, the result of the run it depends on or None)."""
         if task.depends_on is None:
             return True, None
         dep = self.results.get(task.depends_on)
         if dep is None and task.depends_on in self.planned:
             return False, None  # its dependency has not finished yet
-        return True, dep if dep is not None else {"state": "not_executed", "failure_reason": ""}
+        return True, dep if dep is not None else Outcome("not_executed", "", "")
 
     def submit_ready(self) -> bool:
         """Start the pending runs whose dependency is done and that no other process holds, while the pool
@@ -404,11 +414,11 @@ class _Execution:
             submitted = True
             if claim == "done":
                 self.done_elsewhere(task)
-            elif dep is not None and dep["state"] not in SUCCESS_STATES:
+            elif dep is not None and dep.state not in SUCCESS_STATES:
                 record = ex.fail(ex.base_record(task.spec), "dependency",
-                                 f"dependency {task.depends_on[2]!r} {dep['state']}"
-                                 + (f" ({dep['failure_reason']})" if dep["failure_reason"] else ""))
-                record["finished"] = ex.now_iso()
+                                 f"dependency {task.depends_on[2]!r} {dep.state}"
+                                 + (f" ({dep.failure_reason})" if dep.failure_reason else ""))
+                record.finished = ex.now_iso()
                 self.finish(record, task)
             else:
                 self.submit(task, dep)
@@ -419,21 +429,21 @@ class _Execution:
         # the store's models load once Django is set up (harness.store)
         from harness.store.models import Run
 
-        row = Run.objects.get(build_id=task.spec["build"]["id"], machine__name=task.spec["machine"],
-                              testcase__path=task.spec["testcase"], name=task.spec["run"],
-                              testcase_hash=task.spec["testcase_hash"])
-        self.results[task.key] = {"state": row.state, "failure_reason": row.failure_reason, "folder": row.folder}
+        row = Run.objects.get(build_id=task.spec.build["id"], machine__name=task.spec.machine,
+                              testcase__path=task.spec.testcase, name=task.spec.run,
+                              testcase_hash=task.spec.testcase_hash)
+        self.results[task.key] = Outcome(row.state, row.failure_reason, row.folder)
         self.report.skipped += 1
         self.total -= 1
 
-    def submit(self, task: Task, dep: dict | None) -> None:
+    def submit(self, task: Task, dep: Outcome | None) -> None:
         """Record the run as started and hand it to the pool (in the folder of the run it depends on)."""
         if dep is not None:
-            task.spec["dependency_folder"] = dep["folder"]
+            task.spec.dependency_folder = dep.folder
         elif task.dependency_folder:
-            task.spec["dependency_folder"] = task.dependency_folder
+            task.spec.dependency_folder = task.dependency_folder
         in_flight = ex.base_record(task.spec)
-        in_flight["started"] = ex.now_iso()
+        in_flight.started = ex.now_iso()
         store_record(in_flight)
         self.running[self.pool.submit(task.spec)] = task
         _started(task, self.started, self.done_count, self.total, self.durations, self.pool.slots, self.out)
@@ -447,7 +457,7 @@ class _Execution:
             except Exception as exc:  # noqa: BLE001 - a harness bug in one run must not stop the rest
                 record = ex.fail(ex.base_record(task.spec), "post_processing",
                                  f"harness error: {type(exc).__name__}: {exc}")
-                record["finished"] = ex.now_iso()
+                record.finished = ex.now_iso()
             self.finish(record, task)
 
     def interrupted(self) -> None:
@@ -464,7 +474,7 @@ class _Execution:
             self.pool.close()  # let the local workers see their engines die and stop before the records are written
             for task in self.running.values():
                 record = ex.fail(ex.base_record(task.spec), "interrupted", "the harness was interrupted")
-                record["finished"] = ex.now_iso()
+                record.finished = ex.now_iso()
                 ex.write_record(record)
                 try:
                     store_record(record)
@@ -528,14 +538,13 @@ def cost_per_particle_step(timing: dict) -> float | None:
     return 1e6 * seconds / steps if steps and seconds else None
 
 
-def summary_table(records: list[dict]) -> str:
+def summary_table(records: list[RunRecord]) -> str:
     rows = [("target", "commit", "test case", "run", "state", "reason", "wall s", "stepping s", "us/particle-step")]
-    for r in sorted(records, key=lambda r: (r["target"], r["testcase"], r["run"])):
-        cost = cost_per_particle_step(r.get("timing"))
-        rows.append((r["target"], (r.get("build") or {}).get("commit", "")[:10], r["testcase"], r["run"], r["state"],
-                     r["failure_reason"] or "",
-                     f"{r['wall_time']:.2f}" if r.get("wall_time") is not None else "-",
-                     f"{r['stepping_time']:.3f}" if r.get("stepping_time") is not None else "-",
+    for r in sorted(records, key=lambda r: (r.target, r.testcase, r.run)):
+        cost = cost_per_particle_step(r.timing)
+        rows.append((r.target, r.build.get("commit", "")[:10], r.testcase, r.run, r.state, r.failure_reason or "",
+                     f"{r.wall_time:.2f}" if r.wall_time is not None else "-",
+                     f"{r.stepping_time:.3f}" if r.stepping_time is not None else "-",
                      f"{cost:.3f}" if cost is not None else "-"))
     return format_table(rows)
 

@@ -17,7 +17,7 @@ from harness.store import runrecord
 from harness.analysis.breakdown import from_timing as breakdown_from_timing
 from harness.adapters.base import UserError
 from harness.store.rules import SUCCESS_STATES
-from harness.store.runrecord import RECORD_FILE, finite
+from harness.store.runrecord import RECORD_FILE, RunRecord, finite
 
 
 def _when(value):
@@ -26,14 +26,13 @@ def _when(value):
     return datetime.fromisoformat(value) if isinstance(value, str) else value
 
 
-def store_record(record: dict, imported: bool = False, only_new: bool = False):
+def store_record(record: RunRecord, imported: bool = False, only_new: bool = False):
     """Create or update the Run (and its machine, target, build, test case, series) a record describes.
 
     ``only_new``: store it only when no run of that identity is stored yet (the stored one is returned as it
     is); a run another process stores at the same moment wins (``harness.analysis.coverage``)."""
     from django.db import IntegrityError
 
-    record = finite(record)
     if only_new:
         try:
             return _store(record, imported, only_new)
@@ -42,21 +41,21 @@ def store_record(record: dict, imported: bool = False, only_new: bool = False):
     return _store(record, imported, only_new)
 
 
-def _store(record: dict, imported: bool, only_new: bool):
+def _store(record: RunRecord, imported: bool, only_new: bool):
     from django.db import transaction
 
     from harness.store.models import Build, Machine, Run, Series, Target, TestCase
 
     with transaction.atomic():
-        machine = Machine.objects.get_or_create(name=record["machine"])[0]
-        target, created = Target.objects.get_or_create(name=record["target"])
-        definition = record.get("target_definition") or {}
+        machine = Machine.objects.get_or_create(name=record.machine)[0]
+        target, created = Target.objects.get_or_create(name=record.target)
+        definition = record.target_definition
         if created or not target.definition:
             target.definition = definition
             if definition.get("reference"):
                 target.reference = Target.objects.get_or_create(name=definition["reference"])[0]
             target.save()
-        info = record.get("build") or {}
+        info = record.build
         build = Build.objects.filter(target=target, machine=machine, commit=info.get("commit", ""),
                                      definition_hash=info.get("definition_hash", "")).first()
         if build is None:
@@ -66,31 +65,31 @@ def _store(record: dict, imported: bool, only_new: bool):
                 committed_at=_when(info.get("committed_at")), commit_message=info.get("commit_message", ""),
                 status=Build.Status.COMPLETE, executable=json.dumps(info.get("executable") or []),
                 environment=info.get("environment") or {}, folder=info.get("folder", ""),
-                finished=_when(record.get("started")))
+                finished=_when(record.started))
             _adopt_imported_build(build)
-        testcase = TestCase.objects.get_or_create(path=record["testcase"])[0]
-        content = record.get("testcase_hash") or ""
+        testcase = TestCase.objects.get_or_create(path=record.testcase)[0]
+        content = record.testcase_hash
         if only_new:
-            stored = Run.objects.filter(machine=machine, build=build, testcase=testcase, name=record["run"],
+            stored = Run.objects.filter(machine=machine, build=build, testcase=testcase, name=record.run,
                                         testcase_hash=content).first()
             if stored is not None and not stored.replaced:
                 return stored  # a replaced (outdated) run of this content comes back as not executed
         fields = dict(
-            target=target, state=record["state"], failure_reason=record.get("failure_reason", ""),
-            failure_message=record.get("failure_message", ""), config=record.get("config") or {},
-            folder=record.get("folder", ""), command=record.get("command") or [],
-            exit_code=record.get("exit_code"), started=_when(record.get("started")),
-            finished=_when(record.get("finished")), wall_time=record.get("wall_time"),
-            stepping_time=record.get("stepping_time", runrecord.stepping_time_of(record.get("timing"))),
+            target=target, state=record.state, failure_reason=record.failure_reason,
+            failure_message=record.failure_message, config=finite(record.config),
+            folder=record.folder, command=record.command,
+            exit_code=record.exit_code, started=_when(record.started),
+            finished=_when(record.finished), wall_time=finite(record.wall_time),
+            stepping_time=_stepping_time(record),
             # a record written before breakdowns existed: its timing's sections (as migration 0005 fills them)
-            timing=record.get("timing") or {},
-            breakdown=record.get("breakdown") or breakdown_from_timing(record.get("timing") or {}),
-            profile=record.get("profile") or "", warning_count=record.get("warning_count", 0),
+            timing=finite(record.timing),
+            breakdown=finite(record.breakdown) or breakdown_from_timing(finite(record.timing)),
+            profile=record.profile, warning_count=record.warning_count,
             consistency="", consistency_min=None, reference_run=None, replaced=False)
         run, _ = Run.objects.update_or_create(machine=machine, build=build, testcase=testcase,
-                                              name=record["run"], testcase_hash=content, defaults=fields)
+                                              name=record.run, testcase_hash=content, defaults=fields)
         # the same run of earlier (or other) test case content is kept, with its folder, as outdated
-        (Run.objects.filter(machine=machine, build=build, testcase=testcase, name=record["run"])
+        (Run.objects.filter(machine=machine, build=build, testcase=testcase, name=record.run)
          .exclude(pk=run.pk).exclude(state=Run.State.OUTDATED, replaced=True)
          .update(state=Run.State.OUTDATED, replaced=True))
         if imported and not build.current and run.state != Run.State.OUTDATED:
@@ -102,8 +101,15 @@ def _store(record: dict, imported: bool, only_new: bool):
         Series.objects.bulk_create([
             Series(run=run, kind=s["kind"], name=s["name"], x_column=s.get("x_column", ""),
                    columns=s.get("columns", {}), meta=s.get("meta", {}))
-            for s in record.get("series", [])])
+            for s in finite(record.series)])
     return run
+
+
+def _stepping_time(record: RunRecord) -> float | None:
+    """The record's stepping time; a record written before it existed: from its timing."""
+    if "stepping_time" in record.model_fields_set or not record.timing:
+        return finite(record.stepping_time)
+    return runrecord.stepping_time_of(record.timing)
 
 
 def _adopt_imported_build(build) -> None:
@@ -118,17 +124,17 @@ def _adopt_imported_build(build) -> None:
         make_current(build)
 
 
-def read_record(path: Path) -> dict:
+def read_record(path: Path) -> RunRecord:
     """A run record from ``path``, validated; a UserError naming the file and field otherwise."""
     try:
-        record = runrecord.loads(Path(path).read_text(encoding="utf-8"))
+        data = runrecord.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise UserError(f"{path}: not a run record ({exc})") from None
-    problems = runrecord.validate(record)
+    problems = [f"{problem.where()}: {problem.message}" for problem in runrecord.validate(data)]
     if problems:
         raise UserError(f"{path}: not a valid run record: {'; '.join(problems[:3])}"
                         + (f" (and {len(problems) - 3} more)" if len(problems) > 3 else ""))
-    return record
+    return RunRecord.model_validate(data)
 
 
 def _comparable_state(state: str, run=None) -> str:
@@ -144,29 +150,29 @@ def _series_key(items) -> str:
     return json.dumps(sorted([s["kind"], s["name"], s.get("columns", {})] for s in items), sort_keys=True)
 
 
-def conflict(record: dict):
+def conflict(record: RunRecord):
     """How a record differs from the stored run of the same identity ('' when it does not, or none exists)."""
     from harness.store.models import Run
 
-    build = record.get("build") or {}
-    run = Run.objects.filter(machine__name=record["machine"], target__name=record["target"],
+    build = record.build
+    run = Run.objects.filter(machine__name=record.machine, target__name=record.target,
                              build__commit=build.get("commit", ""),
                              build__definition_hash=build.get("definition_hash", ""),
-                             testcase__path=record["testcase"], name=record["run"],
-                             testcase_hash=record.get("testcase_hash") or "").first()
+                             testcase__path=record.testcase, name=record.run,
+                             testcase_hash=record.testcase_hash).first()
     if run is None:
         return ""
     mine = {"state": _comparable_state(run.state, run), "failure_reason": run.failure_reason,
             "failure_message": run.failure_message, "exit_code": run.exit_code,
             "started": run.started, "finished": run.finished, "wall_time": run.wall_time}
-    theirs = {"state": _comparable_state(record["state"]), "failure_reason": record.get("failure_reason", ""),
-              "failure_message": record.get("failure_message", ""), "exit_code": record.get("exit_code"),
-              "started": _when(record.get("started")), "finished": _when(record.get("finished")),
-              "wall_time": record.get("wall_time")}
+    theirs = {"state": _comparable_state(record.state), "failure_reason": record.failure_reason,
+              "failure_message": record.failure_message, "exit_code": record.exit_code,
+              "started": _when(record.started), "finished": _when(record.finished),
+              "wall_time": finite(record.wall_time)}
     differ = [key for key in mine if mine[key] != theirs[key]]
     if not differ:
         stored = [{"kind": s.kind, "name": s.name, "columns": s.columns} for s in run.series.all()]
-        if _series_key(stored) != _series_key(finite(record.get("series", []))):
+        if _series_key(stored) != _series_key(finite(record.series)):
             differ.append("series")
     if not differ:
         return ""
@@ -193,14 +199,13 @@ def import_folder(folder: Path, machine: str | None = None, replace: bool = Fals
         except UserError as exc:
             problems.append(str(exc))
             continue
-        record["folder"] = str(path.parent.resolve())
+        record.folder = str(path.parent.resolve())
         if machine:
-            record["machine"] = machine
+            record.machine = machine
         where = runrecord.null_values(record)
-        if where and record["state"] in SUCCESS_STATES:
+        if where and record.state in SUCCESS_STATES:
             # a success holding non-finite values is what this harness fails as non_finite (harness.execution.execute)
-            record.update(state="failed", failure_reason="non_finite",
-                          failure_message=f"imported with non-finite (null) values in {where}")
+            record.fail("non_finite", f"imported with non-finite (null) values in {where}")
             problems.append(f"{path}: $.series: non-finite (null) values in {where}; imported as failed "
                             "(non_finite)")
         differs = conflict(record)

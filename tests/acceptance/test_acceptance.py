@@ -3,7 +3,17 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from harness.config.acceptance import evaluate, validate
+from harness.config.acceptance import evaluate, problems
+from harness.config.check import validate as validate_schema
+from harness.config.runconfig import RunConfigEntry
+from harness.config.jsonfile import json_path
+
+
+def validate(entry: dict) -> list[str]:
+    """The problems of a run configuration's acceptance keys (the schema's and the rules between bounds), as
+    ``PATH: message`` with the path inside the entry."""
+    found = validate_schema(RunConfigEntry, {"name": "r", "script": "s.json", **entry})[1] + problems(entry)
+    return [f"{json_path(*p.path)[2:]}: {p.message}" for p in found]
 
 
 def thermo(**columns):
@@ -97,6 +107,6 @@ def test_validate_names_the_json_path():
     assert "expectations[0]: 'value' needs 'rel_tol' or 'abs_tol'" in text
     assert "stability.energy_never_grows: needs 'rel_tol' or 'abs_tol'" in text
     assert "stability.explode: unknown check" in text
-    assert validate({"expectations": {"a": 1}}) == ["expectations: must be a list of objects"]
+    assert validate({"expectations": {"a": 1}}) == ['expectations: must be a list of objects, got object {"a": 1}']
     assert "expectations[0].rel_tol: must be >= 0" in "\n".join(
         validate({"expectations": [{"quantity": "a.b", "value": 1, "rel_tol": -1}]}))

@@ -1,5 +1,6 @@
 """The cost figure the run summary shows for every run (what each effect of a scene costs)."""
 from harness.execution.scheduler import cost_per_particle_step, summary_table
+from harness.store.runrecord import RunRecord
 
 
 def test_cost_per_particle_step_prefers_cpu_time():
@@ -10,9 +11,9 @@ def test_cost_per_particle_step_prefers_cpu_time():
 
 
 def test_summary_table_has_the_cost_column():
-    record = {"target": "dem", "testcase": "effects/blocks", "run": "1_normal", "state": "post_processed",
-              "failure_reason": "", "wall_time": 1.5, "timing": {"cpu": 0.5, "particle_steps": 5_000_000}}
-    table = summary_table([record, {**record, "run": "x", "timing": {}}])
+    record = RunRecord(target="dem", machine="m", testcase="effects/blocks", run="1_normal", state="post_processed",
+                       wall_time=1.5, timing={"cpu": 0.5, "particle_steps": 5_000_000})
+    table = summary_table([record, record.model_copy(update={"run": "x", "timing": {}})])
     assert "us/particle-step" in table.splitlines()[0]
     assert table.splitlines()[2].rstrip().endswith("0.100")
     assert table.splitlines()[3].rstrip().endswith("-")

@@ -5,6 +5,17 @@ import numpy as np
 import pandas as pd
 
 from harness.config import sweep as sw
+from harness.config.check import validate as validate_schema
+from harness.config.runconfig import RunConfigEntry
+from harness.config.jsonfile import json_path
+
+
+def validate(entry: dict) -> list[str]:
+    """The problems of a run configuration's sweep block (the schema's and the rules between its fields), as
+    ``PATH: message`` with the path inside the entry."""
+    found = validate_schema(RunConfigEntry, {"name": "r", "script": "s.json", **entry})[1] + sw.problems(entry)
+    return [f"{json_path(*p.path)[2:]}: {p.message}" for p in found]
+
 
 SWEEP = {"variable": "DTF", "values": [0.4, 0.2, 0.1], "error": {"quantity": "thermo.ke", "exact": 1.0}}
 
@@ -19,13 +30,13 @@ def test_expand_gives_one_run_per_value_with_the_variable_set():
     assert sw.expand({"name": "plain"}) == [{"name": "plain"}]
     companions = sw.expand({"name": "b", "sweep": {**SWEEP, "with": {"STEPS": [10, 20, 40]}}})
     assert [p["variables"]["STEPS"] for p in companions] == [10, 20, 40]
-    assert "sweep.with.STEPS" in sw.validate({"name": "b", "sweep": {**SWEEP, "with": {"STEPS": [1]}}})[0]
+    assert "sweep.with.STEPS" in validate({"name": "b", "sweep": {**SWEEP, "with": {"STEPS": [1]}}})[0]
 
 
 def test_validate_reports_paths():
-    assert sw.validate({"sweep": SWEEP}) == []
-    errors = "\n".join(sw.validate({"sweep": {"variable": "", "values": [1, -1], "error": {"quantity": "ke"}}}))
-    assert "sweep.variable" in errors and "sweep.values: every value must be a number > 0" in errors
+    assert validate({"sweep": SWEEP}) == []
+    errors = "\n".join(validate({"sweep": {"variable": "", "values": [1, -1], "error": {"quantity": "ke"}}}))
+    assert "sweep.variable" in errors and "sweep.values[1]: must be a number > 0" in errors
     assert "sweep.error.quantity" in errors
 
 

@@ -165,15 +165,22 @@ def test_breakdown_diff_names_the_section_that_grew_and_its_part_of_the_growth()
 
 def test_without_perf_a_profiled_run_runs_unprofiled_and_says_why(monkeypatch, tmp_path):
     from harness.adapters import get_adapter
+    from harness.store.runrecord import RunSpec
 
-    spec = {"command": ["liggghts", "-in", "in.x"]}
+    def liggghts_run() -> RunSpec:
+        return RunSpec(machine="m", target="t", target_definition={}, build={}, testcase="c", run="r",
+                       testcase_hash="", config={}, adapter="liggghts", thermo_columns={}, environment={},
+                       workspace=str(tmp_path), folder=str(tmp_path), source_folder=str(tmp_path), files=[],
+                       command=["liggghts", "-in", "in.x"])
+
+    spec = liggghts_run()
     profiles.enable(spec, get_adapter("liggghts"), True)
-    assert spec["command"][:5] == ["perf", "record", "-g", "--call-graph", "dwarf"]
+    assert spec.command[:5] == ["perf", "record", "-g", "--call-graph", "dwarf"]
     monkeypatch.setattr(profiles.shutil, "which", lambda name: None)  # a machine without linux-perf
-    spec = {"command": ["liggghts", "-in", "in.x"]}
+    spec = liggghts_run()
     profiles.enable(spec, get_adapter("liggghts"), {"call_graph": "fp"})
-    assert spec["command"] == ["liggghts", "-in", "in.x"]
-    record: dict = {"warnings": []}
+    assert spec.command == ["liggghts", "-in", "in.x"]
+    record = spec.record()
     profiles.finish(spec, tmp_path, record)
-    assert record["warnings"] == ["WARNING: no profile: perf is not installed (Debian: linux-perf)"]
-    assert "profile" not in record
+    assert record.warnings == ["WARNING: no profile: perf is not installed (Debian: linux-perf)"]
+    assert record.profile == ""

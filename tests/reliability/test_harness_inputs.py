@@ -196,11 +196,13 @@ def test_any_value_in_any_field_gives_runs_the_planner_and_the_store_can_take(tm
     reads ``variables`` and ``thermo_columns`` as objects, ``timeout`` as a number) and the store (strict
     JSON, no NaN) can take; every problem is one line."""
     from harness.adapters import get_adapter
-    from harness.config.testcases import RUN_KEYS, load_testcase
+    from harness.config import known_fields
+    from harness.config.runconfig import RunConfigEntry
+    from harness.config.testcases import load_testcase
 
     (tmp_path / "scene.json").write_text("[]")
     failures = []
-    for key in sorted(RUN_KEYS) + ["colour"]:
+    for key in sorted(known_fields(RunConfigEntry)) + ["colour"]:
         for value in FUZZ_VALUES:
             for base in FUZZ_BASES:
                 entry = base[:-1] + f', "{key}": {value}' + "}"
