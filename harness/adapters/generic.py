@@ -41,7 +41,10 @@ from pathlib import Path
 from harness.adapters.base import EngineAdapter, LogScan, UserError
 from harness.config import check
 from harness.config.adapter import TIMING_KEYS, AdapterFile
-from harness.config.jsonfile import Problems
+from harness.config.jsonfile import Problems, load_json
+from harness.execution.postprocess import dump_step
+from harness.execution.workspace import PROJECT_ROOT
+
 
 def validate(data, path: Path) -> None:
     """Raise a UserError listing every problem of a generic adapter file (``$.json.path: what``): the
@@ -106,8 +109,6 @@ class GenericAdapter(EngineAdapter):
     def from_file(cls, file: str) -> "GenericAdapter":
         """The adapter described by ``file`` (absolute, or relative to the project folder); its name is
         ``generic:FILE`` as written, so that a run record names the same adapter again."""
-        from harness.config.jsonfile import load_json
-        from harness.execution.workspace import PROJECT_ROOT
 
         if not file:
             raise UserError("engine 'generic:': name the adapter file, e.g. generic:targets/adapters/mycode.json")
@@ -153,6 +154,7 @@ class GenericAdapter(EngineAdapter):
     def read_thermo(self, folder, mapping=None):
         """The thermo table from the CSV file or the log lines the description names, mapped onto step,
         atoms, ke, rke (``thermo_columns`` of target/run.config first, then the description's ``columns``)."""
+        # a heavy library, loaded when this runs, not at every `harness` start
         import pandas as pd
 
         folder = Path(folder)
@@ -221,7 +223,6 @@ class GenericAdapter(EngineAdapter):
         return scan
 
     def vtk_files(self, folder):
-        from harness.execution.postprocess import dump_step
 
         folder = Path(folder)
         found = []

@@ -171,6 +171,7 @@ def studies_in_store(runs) -> list[Study]:
     ``runs`` is a Run queryset, typically one build's runs on one machine, without replaced runs. A failed
     point has no time and no figures.
     """
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.store.rules import SUCCESS_STATES
 
     groups: dict[tuple[str, str], list] = {}
@@ -214,6 +215,7 @@ def history(target_id: int, machine_id: int) -> dict[str, list[dict]]:
     A revision that scales worse shows as a drop of efficiency even when its one-core time holds.
     Three queries whatever the number of builds: the builds, their scaling runs, nothing per build.
     """
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.store.models import Build, Run
     from harness.store.rules import SUCCESS_STATES
 

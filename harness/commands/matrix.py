@@ -35,6 +35,7 @@ def run(args) -> int:
         write_csv,
         write_json,
     )
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.config.targets import select_targets
     from harness.execution.builds import record_current_build
     from harness.execution.workspace import workspace

@@ -49,6 +49,7 @@ def run(args) -> int:
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from django.db.models import Count
 
+    # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.config.targets import load_targets
 
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast

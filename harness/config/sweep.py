@@ -28,6 +28,7 @@ import pandas as pd
 
 from harness.config.acceptance import reduce_values
 from harness.config.jsonfile import Problem
+from harness.execution.postprocess import is_number
 from harness.store.rules import SUCCESS_STATES
 
 SEPARATOR = "@"
@@ -125,9 +126,11 @@ def observed_order(x, error) -> float | None:
 
 def plot(table: pd.DataFrame, sweep: dict, title: str, path) -> None:
     """Log-log plots side by side: error against run time (the cost of accuracy) and error against the value."""
+    # a heavy library, loaded when this runs, not at every `harness` start
     import matplotlib
 
     matplotlib.use("Agg")
+    # a heavy library, loaded when this runs, not at every `harness` start
     import matplotlib.pyplot as plt
 
     variable = sweep["variable"]
@@ -166,7 +169,6 @@ def plot(table: pd.DataFrame, sweep: dict, title: str, path) -> None:
 
 def _textfile_table(words: list[str]) -> pd.DataFrame | None:
     """A text file stored as words read back as a table: header words, then rows of numbers (else None)."""
-    from harness.execution.postprocess import is_number
 
     width = next((i for i, word in enumerate(words) if is_number(word)), len(words))
     values = words[width:]
@@ -236,6 +238,7 @@ def sweeps_in_store(runs) -> list[SweepResult]:
 
 def current_sweeps() -> list[tuple[object, SweepResult]]:
     """The sweeps of the newest complete build of every target on every machine, as (build, sweep) pairs."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.store.models import Build, Run
 
     latest = {}
@@ -249,6 +252,7 @@ def current_sweeps() -> list[tuple[object, SweepResult]]:
 
 
 def find_sweep(build, testcase: str, name: str) -> SweepResult | None:
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.store.models import Run
 
     runs = Run.objects.filter(build=build, testcase__path=testcase)

@@ -14,6 +14,7 @@ cycle or to a broken or unknown target, is reported (``$.reference``) and left o
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -22,8 +23,8 @@ from pathlib import Path, PurePosixPath
 
 from harness.adapters.base import UserError
 from harness.config import check
-from harness.config.target import WORKING_TREE, Target
 from harness.config.jsonfile import Problem, Problems, load_json, non_finite_problems
+from harness.config.target import WORKING_TREE, Target
 from harness.execution.workspace import PROJECT_ROOT, segment_problem
 
 #: fields that change the binary; the build cache is keyed by their hash and the commit
@@ -350,7 +351,6 @@ def select_targets(names: list[str], folder: Path | None = None) -> tuple[list[T
 def with_testcases(target: TargetDefinition, folder: str | Path | None) -> TargetDefinition:
     """``target`` with its test case folders replaced by ``folder`` (made absolute: read as it is on disk, no
     git), for ``harness run --testcases`` and ``harness validate --testcases``; unchanged without one."""
-    import dataclasses
 
     if not folder:
         return target

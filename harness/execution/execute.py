@@ -12,18 +12,28 @@ import os
 import shutil
 import signal
 import stat
+import statistics
 import subprocess
 import tempfile
 import threading
 import time
+import uuid
 from datetime import datetime, timezone
 from pathlib import Path
 
 from harness.adapters import get_adapter
-from harness.adapters.base import UserError
+from harness.adapters.base import LogScan, UserError
+from harness.adapters.dem import scan_lines
+from harness.execution import profiles
+from harness.execution.postprocess import (
+    frame_to_series,
+    non_finite_columns,
+    read_declared,
+    vtk_aggregates,
+)
+from harness.execution.workspace import PROJECT_ROOT, Workspace
 from harness.store import runrecord
 from harness.store.runrecord import RunRecord, RunSpec
-from harness.execution.workspace import PROJECT_ROOT, Workspace
 
 RECORD_FILE = runrecord.RECORD_FILE
 STDOUT, STDERR, POST_LOG = "stdout.txt", "stderr.txt", "post_scripts.log"
@@ -66,7 +76,6 @@ TOKEN_VARIABLE = "HARNESS_RUN_TOKEN"
 
 
 def new_token() -> str:
-    import uuid
 
     return uuid.uuid4().hex
 
@@ -343,8 +352,6 @@ def execute(spec: RunSpec) -> RunRecord:
         return record
     record.stderr_tail = tail(folder / STDERR, 20)
     record.log_tail = tail(folder / adapter.log_file()) or tail(folder / STDOUT)
-    from harness.adapters.base import LogScan
-    from harness.adapters.dem import scan_lines
 
     missing = None
     try:
@@ -362,7 +369,6 @@ def execute(spec: RunSpec) -> RunRecord:
     except UserError:
         record.breakdown = {}
     if spec.profile:
-        from harness.execution import profiles
 
         profiles.finish(spec, folder, record)
     _classify(record, code, timed_out, scan, spec.timeout)
@@ -384,7 +390,6 @@ def _repeat(spec: RunSpec, folder: Path, record: RunSpec, adapter) -> None:
     are the same bytes each time) and keep every stepping time in ``timing["stepping_repeats"]`` (s, in
     order); the run's stepping time becomes their median. A repeat that fails or times out ends the
     series (the first run's outcome stands)."""
-    import statistics
 
     times = [record.stepping_time]
     for _ in range(spec.repeat - 1):
@@ -403,7 +408,6 @@ def _repeat(spec: RunSpec, folder: Path, record: RunSpec, adapter) -> None:
 
 def postprocess_run(spec: RunSpec, folder: Path, record: RunSpec, adapter) -> None:
     """Thermo (kept even for failed runs), then for successful runs post scripts, data, VTK, acceptance."""
-    from harness.execution.postprocess import frame_to_series, non_finite_columns, read_declared, vtk_aggregates
 
     config = spec.config
     mapping = spec.thermo_columns or None
@@ -439,11 +443,13 @@ def postprocess_run(spec: RunSpec, folder: Path, record: RunSpec, adapter) -> No
     frames["thermo"] = thermo
     overlaps = adapter.largest_overlaps(folder)
     if overlaps:  # the engine's own report, for the default blow-up check (harness.config.acceptance)
+        # a heavy library, loaded when this runs, not at every `harness` start
         import pandas as pd
 
         frames.setdefault("engine_log", pd.DataFrame({"block": range(1, len(overlaps) + 1),
                                                       "max_overlap": overlaps}))
     try:
+        # optional: a trimmed install without the acceptance checks still runs and records its runs
         from harness.config import acceptance
     except ImportError:
         acceptance = None

@@ -31,6 +31,7 @@ def store_record(record: RunRecord, imported: bool = False, only_new: bool = Fal
 
     ``only_new``: store it only when no run of that identity is stored yet (the stored one is returned as it
     is); a run another process stores at the same moment wins (``harness.analysis.coverage``)."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from django.db import IntegrityError
 
     if only_new:
@@ -42,8 +43,10 @@ def store_record(record: RunRecord, imported: bool = False, only_new: bool = Fal
 
 
 def _store(record: RunRecord, imported: bool, only_new: bool):
+    # the store's models (Django) load once Django is set up (harness.store)
     from django.db import transaction
 
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.store.models import Build, Machine, Run, Series, Target, TestCase
 
     with transaction.atomic():
@@ -116,6 +119,7 @@ def _adopt_imported_build(build) -> None:
     """A build first seen in an imported record becomes its machine's current build of the target when
     that machine has none yet or only one of an older commit (the other machine resolved the revision,
     not this one; its newest commit is the best guess of what it runs now)."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.execution.builds import make_current
     from harness.store.models import Build
 
@@ -139,6 +143,7 @@ def read_record(path: Path) -> RunRecord:
 
 def _comparable_state(state: str, run=None) -> str:
     """States that mean the same result: a checked run was post-processed; an outdated one what it was."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.store.rules import effective_state
 
     if run is not None:
@@ -152,6 +157,7 @@ def _series_key(items) -> str:
 
 def conflict(record: RunRecord):
     """How a record differs from the stored run of the same identity ('' when it does not, or none exists)."""
+    # the store's models (Django) load once Django is set up (harness.store)
     from harness.store.models import Run
 
     build = record.build
@@ -187,6 +193,7 @@ def import_folder(folder: Path, machine: str | None = None, replace: bool = Fals
     The record's folder is set to where the run folder is now. Returns (stored runs, problems): a record
     that does not validate, or conflicts with a stored one (unless ``replace``), is a problem and skipped.
     """
+    # the store's models (Django) load once Django is set up (harness.store)
     from django.db import DatabaseError
 
     folder = Path(folder)

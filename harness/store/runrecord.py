@@ -133,6 +133,7 @@ def _length_problems(data: dict) -> list[Problem]:
     """Texts longer than the store's columns hold (harness/store/models.py): PostgreSQL refuses them, SQLite would
     keep them; both stores refuse the record so that they agree."""
     try:
+        # the store's models (Django) load once Django is set up (harness.store)
         from harness.store.models import Build, Run, Series, TestCase
     except Exception:  # noqa: BLE001 - without a configured store there is no column to compare with
         return []
