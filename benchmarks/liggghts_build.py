@@ -1,4 +1,4 @@
-"""Cold and incremental builds of LIGGGHTS-PUBLIC from source (target liggghts-src, issue 19).
+"""Cold and incremental builds of LIGGGHTS-PUBLIC from source (target liggghts-src).
 
 Builds the target ``liggghts-src`` (CMake, Release, VTK, ccache) through the harness CLI with one ccache
 folder, empty at the start: first COLD (default ``HEAD~3``) in a fresh workspace; then (``--warm``) the same
