@@ -131,7 +131,8 @@ def test_the_committed_scenes_with_their_vtk_dumps_agree_with_the_debian_binary(
         "scaling@cores=2", "serial"], runs
     for name, path, state, folder, vtk in runs:
         assert state == "post_processed", (path, name, state)
-        assert vtk is not None and len(vtk["step"]) >= 2, (path, name)
+        # mesh_tet dumps once (every 800 of 1001 steps, from step 1 on); the others several times
+        assert vtk is not None and len(vtk["step"]) >= (1 if name == "mesh_tet" else 2), (path, name)
         assert max(vtk["particles"]) > 0, (path, name)
         if path.endswith("settling"):   # 324 spheres on a lattice, in every dump, serial and on 2 ranks
             assert set(vtk["particles"]) == {324}, (name, vtk["particles"])
