@@ -1,12 +1,15 @@
-"""Cold and incremental builds of LIGGGHTS-PUBLIC from source (target liggghts-src, issue 19).
+"""Cold and incremental builds of LIGGGHTS-PUBLIC from source (target liggghts-src).
 
-Builds the target ``liggghts-src`` (CMake, Release, no VTK, ccache) through the harness CLI in a fresh
-workspace with an empty ccache folder: first COLD (default ``HEAD~3``), then NEXT (default ``HEAD~2``, the
-adjacent commit, which changes one source file). Prints each build's time (the harness' own measurement:
-export, patches, configure, compile, link), ccache's hits and misses, and the ratio NEXT / COLD. Both builds
-run in this one invocation, one after the other, so they see the same machine load.
+Builds the target ``liggghts-src`` (CMake, Release, VTK, ccache) through the harness CLI with one ccache
+folder, empty at the start: first COLD (default ``HEAD~3``) in a fresh workspace; then (``--warm``) the same
+revision again in a second fresh workspace, through the now warm ccache (what a CI machine with a kept cache
+does); then NEXT (default ``HEAD~2``, the adjacent commit, which changes one source file: a bisect step) in
+the first workspace. Prints each build's time (the harness' own measurement: export, patches, configure,
+compile, link), ccache's hits and misses, the ratios to COLD and the load average. The builds run in this one
+invocation, one after the other, so they see about the same machine load.
 
-    python benchmarks/liggghts_build.py                         # HEAD~3 cold, then HEAD~2
+    python benchmarks/liggghts_build.py -j 2                    # HEAD~3 cold, HEAD~2
+    python benchmarks/liggghts_build.py -j 2 --warm             # HEAD~3 cold, HEAD~3 warm, HEAD~2
     python benchmarks/liggghts_build.py --cold 3.7.0 --next 3.8.0 -j 2
 """
 from __future__ import annotations
@@ -41,19 +44,30 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cold", default="HEAD~3", help="revision built first, with an empty ccache")
     parser.add_argument("--next", default="HEAD~2", help="revision built second, through the warm ccache")
+    parser.add_argument("--warm", action="store_true",
+                        help="also build COLD again in a fresh workspace through the warm ccache")
     parser.add_argument("-j", dest="jobs", type=int, default=os.cpu_count() or 1, help="compile jobs")
     args = parser.parse_args(argv)
+    loads = [os.getloadavg()[0]]
     with tempfile.TemporaryDirectory(prefix="liggghts-build-") as scratch:
         home, ccache = Path(scratch) / "home", Path(scratch) / "ccache"
-        rows = [build(home, ccache, revision, args.jobs) for revision in (args.cold, args.next)]
-    print(f"{'build':<6} {'revision':<10} {'commit':<12} {'seconds':>8} {'hits':>6} {'misses':>6}  patches")
-    for label, row in zip(("cold", "next"), rows):
+        plan = [("cold", home, args.cold)] + ([("warm", Path(scratch) / "home2", args.cold)] if args.warm else []) \
+            + [("next", home, args.next)]
+        rows = []
+        for label, workspace, revision in plan:
+            rows.append((label, build(workspace, ccache, revision, args.jobs)))
+            loads.append(os.getloadavg()[0])
+    cold = rows[0][1]["duration_s"]
+    print(f"{'build':<6} {'revision':<10} {'commit':<12} {'seconds':>8} {'/cold':>6} {'hits':>6} {'misses':>6}  "
+          f"patches")
+    for label, row in rows:
         stats = row.get("ccache_stats", {})
         hits = stats.get("direct_cache_hit", 0) + stats.get("preprocessed_cache_hit", 0)
-        print(f"{label:<6} {row['revision']:<10} {row['commit'][:12]:<12} {row['duration_s']:>8.1f} {hits:>6} "
-              f"{stats.get('cache_miss', 0):>6}  {', '.join(row.get('patches', [])) or '-'}")
-    print(f"next / cold = {rows[1]['duration_s'] / rows[0]['duration_s']:.3f} (jobs {args.jobs}, "
-          f"load average {os.getloadavg()[0]:.1f})")
+        print(f"{label:<6} {row['revision']:<10} {row['commit'][:12]:<12} {row['duration_s']:>8.1f} "
+              f"{row['duration_s'] / cold:>6.3f} {hits:>6} {stats.get('cache_miss', 0):>6}  "
+              f"{', '.join(row.get('patches', [])) or '-'}")
+    print(f"jobs {args.jobs}; load average (1 min) at the start and after each build: "
+          + " ".join(f"{load:.1f}" for load in loads))
     return 0
 
 

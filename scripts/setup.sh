@@ -4,10 +4,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# cmake, g++, ccache and libopenmpi-dev build LIGGGHTS-PUBLIC from source (targets/liggghts-src.json);
+# cmake, g++, ccache, libopenmpi-dev and libvtk9-dev (with the Qt5 development files its CMake package
+# needs) build LIGGGHTS-PUBLIC with VTK from source (targets/liggghts-src.json);
 # linux-perf: harness run --profile (perf record -g); g++ also builds the small C++ code of tests/efficiency
 apt_packages=(liggghts liggghts-doc lammps lammps-examples yade openmpi-bin chromium make gcc postgresql
-              cmake g++ ccache libopenmpi-dev linux-perf)
+              cmake g++ ccache libopenmpi-dev libvtk9-dev qtbase5-dev libqt5opengl5-dev linux-perf)
 if [ "${HARNESS_SKIP_APT:-0}" != 1 ] && command -v apt-get >/dev/null 2>&1; then
     missing=()
     for p in "${apt_packages[@]}"; do
@@ -17,7 +18,9 @@ if [ "${HARNESS_SKIP_APT:-0}" != 1 ] && command -v apt-get >/dev/null 2>&1; then
         echo "setup: installing Debian packages: ${missing[*]}"
         SUDO=""; [ "$(id -u)" = 0 ] || SUDO="sudo"
         $SUDO apt-get update -qq
-        DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" >/dev/null
+        # python3-paraview (recommended through liggghts -> paraview) conflicts with python3-vtk9, which
+        # libvtk9-dev depends on: drop it (the project reads VTK with pip's vtk, not ParaView's Python)
+        DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" python3-paraview- >/dev/null
     fi
 fi
 
