@@ -307,8 +307,8 @@ def test_the_liggghts_src_patches_apply_to_every_commit_of_their_ranges_and_give
     warns, and the VTK dumps then miss their headers)."""
     import re
 
-    from harness import gitrepo
-    from harness.builds import _in_range
+    from harness.config import gitrepo
+    from harness.execution.builds import _in_range
 
     target = load_target_file(Path(__file__).resolve().parents[2] / "targets" / "liggghts-src.json")
     if not Path(target.repository).is_file():
