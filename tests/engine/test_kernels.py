@@ -73,4 +73,5 @@ def test_the_generated_loops_are_parallel_and_thread_safe_by_construction():
     assert "parallel=PARALLEL" not in serial and "f[j, 0] -= fx" in serial and "reaction[q" not in serial
     assert "f[j" not in source and "torque[j" not in source
     assert "reaction[q, 3] = crj * tqx" in source and "reaction[q, 6] = rtx" in source
-    assert kernels.Constants._fields == ("dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin")
+    assert kernels.Constants._fields == ("dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin",
+                                        "history_transfer")

@@ -116,7 +116,7 @@ def test_neighbor_list_matches_brute_force_after_reordering_and_loss(periodic):
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
         s = random_state(np.random.default_rng(5), n, lo, hi, outside=0 if periodic[2] else 7)
         lost = lost_record(n)
-        kept, nbr = rebuild(s, n, empty_list(3), lo, hi, periodic, skin, 1, lost)
+        kept, nbr = rebuild(s, n, empty_list(3), lo, hi, periodic, skin, 1, lost, -np.ones(3))
         s = particle_state.trimmed(s, kept)
         expected_lost = 0 if periodic[2] else 7
         assert kept == n - expected_lost and lost.count[0] == expected_lost
@@ -138,7 +138,7 @@ def test_neighbor_list_matches_brute_force_after_reordering_and_loss(periodic):
         owner = np.repeat(np.arange(kept), np.diff(nbr.start))
         nbr.hist[:, 0] = s.pid[owner] - s.pid[nbr.j]
         s.x[:kept] += 0.004 * np.random.default_rng(9).standard_normal((kept, 3))
-        kept2, nbr2 = rebuild(s, kept, nbr, lo, hi, periodic, skin, 2, lost_record(kept))
+        kept2, nbr2 = rebuild(s, kept, nbr, lo, hi, periodic, skin, 2, lost_record(kept), -np.ones(3))
         s = particle_state.trimmed(s, kept2)
         assert listed_pairs(s, nbr2, kept2) == brute_force_pairs(s.x, s.radius, s.pid, lo, hi, periodic, skin)
         owner2 = np.repeat(np.arange(kept2), np.diff(nbr2.start))
