@@ -15,7 +15,7 @@ import numpy as np
 from . import guards, memory, modifiers, quantities, regions, runner
 from . import state as particle_state
 from .errors import InputError, RunFailure
-from .models import COEFFICIENTS, OPTIONS, SUBMODELS, choices
+from .models import SUBMODELS, choices, coefficients, options
 from .restart import read_restart, write_restart
 from .scene import lattice_points, random_packing, region_bounds
 from .script import Fields
@@ -73,22 +73,22 @@ def create_interaction(sim, fields: Fields):
     for t in types:
         if t not in sim.materials:
             raise fields.error("types", f"names unknown material type {t}")
-    coefficients = {}
-    for coefficient in COEFFICIENTS:
+    values = {}
+    for coefficient in coefficients():
         value = fields.number(coefficient.name, coefficient.default, required=coefficient.default is None,
                               minimum=coefficient.minimum)
         problem = coefficient.check(value) if coefficient.check else ""
         if problem:
             raise fields.error(coefficient.name, problem)
-        coefficients[coefficient.name] = value
-    sim.interactions[(min(types), max(types))] = coefficients
+        values[coefficient.name] = value
+    sim.interactions[(min(types), max(types))] = values
 
 
 def create_contact_model(sim, fields: Fields):
     """A law per kind of submodel (models.SUBMODELS) and their options."""
     model = {kind: fields.string(kind, None if sub.required else sub.default, required=sub.required,
                                  choices=choices(kind)) for kind, sub in SUBMODELS.items()}
-    model.update({name: fields.boolean(name, option.default) for name, option in OPTIONS.items()})
+    model.update({name: fields.boolean(name, option.default) for name, option in options().items()})
     velocity = fields.number("characteristic_velocity", None, positive=True)
     if model["normal"] == "hooke" and velocity is None:
         raise fields.error("characteristic_velocity", "is missing (the Hooke model needs it, m/s)")

@@ -26,9 +26,9 @@ from dataclasses import field, make_dataclass
 
 from .contact_laws import slip_velocity
 from .jit import cache_dir
-from .models import LAWS, OPTIONS, PARAMETERS, SUBMODELS
+from .models import LAWS, PARAMETERS, SUBMODELS, options
 from .state import FIELD_NAMES
-from .templates import render
+from .templates import render, unpack
 from .walls import SHAPES, WALL_FEATURES, WALL_FIELDS
 
 #: scalars and small arrays every step reads: dt (s), characteristic velocity (m/s, Hooke), gravity (m/s^2, 3),
@@ -93,12 +93,12 @@ class _CombinationLogic:
 
 
 #: Everything that changes the compiled code of a scene: a frozen dataclass with a field per kind of submodel
-#: (the law's name, models.SUBMODELS) and per option of the contact model (models.OPTIONS), a flag per wall
+#: (the law's name, models.SUBMODELS) and per option of the contact model (models.options), a flag per wall
 #: feature (walls.WALL_FEATURES), gravity, the periodic axes and parallel (loops compiled for several threads)
 Combination = make_dataclass(
     "Combination",
     [(kind, str, field(default=sub.default)) for kind, sub in SUBMODELS.items()]
-    + [(name, bool, field(default=option.default)) for name, option in OPTIONS.items()]
+    + [(name, bool, field(default=option.default)) for name, option in options().items()]
     + [(name, bool, field(default=False)) for name in WALL_FEATURES]
     + [("gravity", bool, field(default=False)), ("periodic", tuple, field(default=(False, False, False))),
        ("parallel", bool, field(default=False))],
@@ -482,10 +482,6 @@ ${step_loop}
 
 # ---------------------------------------------------------------- filling the slots
 
-def _unpack(obj: str, fields) -> str:
-    """Fields of a state object as locals. Numba (0.68, issues 5872/7135) loses writes made through a
-    namedtuple's attribute inside a parallel loop; locals are safe everywhere."""
-    return "".join(f"{name} = {obj}.{name}\n" for name in fields)
 
 
 #: where a contact's history lives: pair k of the neighbor list, particle i's dense row of wall w, entry k of the
@@ -547,7 +543,7 @@ def _pair_forces(c: Combination) -> str:
     periodic = "".join(f"d{name} -= box[{a}] * np.rint(d{name} / box[{a}])\n"
                        for a, name in enumerate("xyz") if c.periodic[a])
     rows = c.parallel  # several threads: pair rows for the partner, gathered in the particle pass
-    return render(PAIR_FORCES, unpack=_unpack("s", FIELD_NAMES), particle_head=PARTICLE_HEAD,
+    return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), particle_head=PARTICLE_HEAD,
                   periodic_image=periodic, row="q = rslot[k]" if rows else "", reset_history=_reset_history(c, "pair"),
                   zero_row=f"for h in range({c.reaction_width}):\n    reaction[q, h] = 0.0" if rows else "",
                   contact=contact_code(c, "pair"), own_sum=OWN_SUM[rows])
@@ -560,7 +556,7 @@ def _particle_pass(c: Combination, parts: list) -> str:
         contacts = "".join(part.contacts(lambda place: contact_code(c, place),
                                          lambda place: _reset_history(c, place)) for part in parts)
         walls = render(WALLS, particle_head=PARTICLE_HEAD, contacts=contacts)
-        unpack_walls = _unpack("walls", WALL_FIELDS[:-2]) + "nplanes = plane_point.shape[0]\n"
+        unpack_walls = unpack("walls", WALL_FIELDS[:-2]) + "nplanes = plane_point.shape[0]\n"
     gravity_force = _gravity_force(c)
     gather = ""
     if c.parallel:
@@ -570,7 +566,7 @@ def _particle_pass(c: Combination, parts: list) -> str:
                         gather_torque=gather_torque)
     clear = "" if c.parallel else "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)) + \
         "torque[i, 0] = 0.0\ntorque[i, 1] = 0.0\ntorque[i, 2] = 0.0\n"
-    return render(PARTICLE_PASS, unpack=_unpack("s", FIELD_NAMES), unpack_walls=unpack_walls, gather=gather,
+    return render(PARTICLE_PASS, unpack=unpack("s", FIELD_NAMES), unpack_walls=unpack_walls, gather=gather,
                   walls=walls, drift=render(DRIFT, clear=clear))
 
 

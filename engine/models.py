@@ -126,8 +126,16 @@ SUBMODELS = {sub.kind: sub for sub in (
              partner={True: "reaction[q, ${o}] = rtx\nreaction[q, ${o1}] = rty\nreaction[q, ${o2}] = rtz\n",
                       False: "torque[j, 0] += rtx\ntorque[j, 1] += rty\ntorque[j, 2] += rtz\n"}),
 )}
-OPTIONS = {option.name: option for sub in SUBMODELS.values() for option in sub.options}
-COEFFICIENTS = tuple(coefficient for sub in SUBMODELS.values() for coefficient in sub.coefficients)
+
+
+def options() -> dict:
+    """Name -> Option of every submodel's options (flags of `create contact_model`)."""
+    return {option.name: option for sub in SUBMODELS.values() for option in sub.options}
+
+
+def coefficients() -> tuple:
+    """The Coefficients of every submodel (fields of `create interaction`), in evaluation order."""
+    return tuple(coefficient for sub in SUBMODELS.values() for coefficient in sub.coefficients)
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from . import threads as thread_pool
 from . import state as particle_state
 from .errors import RunFailure
 from .kernels import Combination, Constants, build_kernel, parameter_table
-from .models import OPTIONS, SUBMODELS
+from .models import SUBMODELS, options
 from .neighbor import empty_list, lost_record
 from .quantities import OVERLAP_WARN_RATIO
 from .script import Fields
@@ -29,7 +29,7 @@ MAX_WALL_SPEED = 299_792_458.0
 def combination(sim, parallel: bool = False) -> Combination:
     """The compiled code this scene needs: its submodels and their options, wall shapes, gravity and periodic
     axes, and whether its loops are compiled for several threads."""
-    model = {name: sim.model[name] for name in (*SUBMODELS, *OPTIONS)}
+    model = {name: sim.model[name] for name in (*SUBMODELS, *options())}
     return Combination(parallel=parallel, **model, **wall_features(sim.walls),
                        gravity=any(mod.acceleration() is not None for mod in sim.active_modifiers()),
                        periodic=tuple(bool(p) for p in sim.periodic))

@@ -18,3 +18,9 @@ def render(template: str, **slots) -> str:
         code = slots[m["name"]]
         return "\n".join(m["indent"] + line if line.strip() else "" for line in code.splitlines())
     return string.Template(_BLOCK_SLOT.sub(block, template)).substitute(slots)
+
+
+def unpack(obj: str, fields) -> str:
+    """Fields of a state object as locals. Numba (0.68, issues 5872/7135) loses writes made through a
+    namedtuple's attribute inside a parallel loop; locals are safe everywhere."""
+    return "".join(f"{name} = {obj}.{name}\n" for name in fields)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..script import Fields
-from ..templates import render
+from ..templates import render, unpack
 from .shape import AXES, KernelPart, WallShape, numbers, rows, unit
 
 #: a wall has infinite radius and mass (R* = r_i, m* = m_i), its type's material; en points from the wall to
@@ -53,12 +53,7 @@ PLANE_BITS = 62
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
 def plane_reach(s, n, walls, skin, plane_near):
     """Bits of the planes within r + skin of each particle's centre at the last rebuild (see the template)."""
-    x_build = s.x_build
-    radius = s.radius
-    wall_hist = s.wall_hist
-    plane_point = walls.plane_point
-    plane_normal = walls.plane_normal
-    plane_vel = walls.plane_vel
+    ${unpack}
     nplanes = min(plane_point.shape[0], PLANE_BITS)
     for i in prange(n):
         near = 0
@@ -174,4 +169,6 @@ class Plane(WallShape):
             bounds = render(PLANE_BOUNDS, reset_history=reset("wall")) if c.bounded_planes else ""
             return render(PLANE_CONTACTS, reset_history=reset("wall"), contact=contact("wall"), bounds=bounds)
         return KernelPart(contacts=contacts, move=MOVE_PLANES, after_rebuild=PLANE_REACH_CALL,
-                          at_start=PLANE_REACH_CALL, setup=PLANE_REACH_CALL, functions=PLANE_REACH)
+                          at_start=PLANE_REACH_CALL, setup=PLANE_REACH_CALL,
+                          functions=render(PLANE_REACH, unpack=unpack("s", ("x_build", "radius", "wall_hist"))
+                                           + unpack("walls", ("plane_point", "plane_normal", "plane_vel"))))
