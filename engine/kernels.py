@@ -241,33 +241,74 @@ ${particle_head}
 reff = ri
 meff = mi
 ${contacts}
-f[i, 0] += fix
-f[i, 1] += fiy
-f[i, 2] += fiz
-torque[i, 0] += tix
-torque[i, 1] += tiy
-torque[i, 2] += tiz
+ftot0 += fix
+ftot1 += fiy
+ftot2 += fiz
+ttot0 += tix
+ttot1 += tiy
+ttot2 += tiz
 """
 
-#: fix nve/sphere: half kick of v and omega (I = 0.4 m r^2), drift; then the neighbor check (moved more than
-#: skin/2: rebuild; a non-finite position fails every comparison: the run stops naming the particle). On one
-#: thread the force and torque, read for the last time here, start the next evaluation (gravity, zero) in the
-#: same pass: no separate pass over the particles to clear them
-DRIFT = """\
-for a in range(3):
-    v[i, a] += half_dt * f[i, a] * inv_mass[i]
-    x[i, a] += dt * v[i, a]
-    omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]
-${clear}
-dx = x[i, 0] - x_build[i, 0]
-dy = x[i, 1] - x_build[i, 1]
-dz = x[i, 2] - x_build[i, 2]
-d2 = dx * dx + dy * dy + dz * dz
-if d2 > half_skin_sq:
-    need += 1
-elif not d2 <= half_skin_sq:
-    bad = min(bad, i)
+#: fix nve/sphere on particle i, whose total force and torque are ftot*, ttot* (read once): with kick, the
+#: second half kick of v and omega (I = 0.4 m r^2); with drift, the next step's first half kick and the drift,
+#: then the neighbor check (moved more than skin/2: rebuild; a non-finite position fails every comparison: the
+#: run stops naming the particle). Without drift (a chunk's last step, setup) the totals are stored for Python
+#: to read; with drift they are read for the last time here, and (on one thread) the force and torque start
+#: the next evaluation in the same pass (${clear}: gravity, zero): no separate pass to clear them. v, omega, x
+#: are kept in locals between the kicks and the drift - the same operations in the same order as updating the
+#: arrays in place, so the same bytes, without reloading what a store might have changed
+INTEGRATE = """\
+inv_mi = inv_mass[i]
+inv_ii = inv_inertia[i]
+v0 = v[i, 0]
+v1 = v[i, 1]
+v2 = v[i, 2]
+w0 = omega[i, 0]
+w1 = omega[i, 1]
+w2 = omega[i, 2]
+if kick:
+    v0 += half_dt * ftot0 * inv_mi
+    w0 += half_dt * ttot0 * inv_ii
+    v1 += half_dt * ftot1 * inv_mi
+    w1 += half_dt * ttot1 * inv_ii
+    v2 += half_dt * ftot2 * inv_mi
+    w2 += half_dt * ttot2 * inv_ii
+if drift:
+    v0 += half_dt * ftot0 * inv_mi
+    v1 += half_dt * ftot1 * inv_mi
+    v2 += half_dt * ftot2 * inv_mi
+    w0 += half_dt * ttot0 * inv_ii
+    w1 += half_dt * ttot1 * inv_ii
+    w2 += half_dt * ttot2 * inv_ii
+    x0 = x[i, 0] + dt * v0
+    x1 = x[i, 1] + dt * v1
+    x2 = x[i, 2] + dt * v2
+    x[i, 0] = x0
+    x[i, 1] = x1
+    x[i, 2] = x2
+    ${clear}
+    dx = x0 - x_build[i, 0]
+    dy = x1 - x_build[i, 1]
+    dz = x2 - x_build[i, 2]
+    d2 = dx * dx + dy * dy + dz * dz
+    if d2 > half_skin_sq:
+        need += 1
+    elif not d2 <= half_skin_sq:
+        bad = min(bad, i)
+else:
+    ${store_totals}
+v[i, 0] = v0
+v[i, 1] = v1
+v[i, 2] = v2
+omega[i, 0] = w0
+omega[i, 1] = w1
+omega[i, 2] = w2
 """
+STORE_TOTALS = ("f[i, 0] = ftot0\nf[i, 1] = ftot1\nf[i, 2] = ftot2\ntorque[i, 0] = ttot0\ntorque[i, 1] = ttot1\n"
+                "torque[i, 2] = ttot2\n")
+#: one thread, no gathering: the totals start from what the pair pass left in f and torque
+READ_TOTALS = ("ftot0 = f[i, 0]\nftot1 = f[i, 1]\nftot2 = f[i, 2]\nttot0 = torque[i, 0]\nttot1 = torque[i, 1]\n"
+               "ttot2 = torque[i, 2]\n")
 
 #: pass 2 of a force evaluation, per particle: on several threads gravity (F = m g, the first force), minus
 #: what the pairs (i, p) left for p in `reaction` - added in increasing i, exactly the order of the serial
@@ -292,12 +333,7 @@ def particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, kick, drift
     for i in prange(n):
         ${gather}
         ${walls}
-        if kick:
-            for a in range(3):
-                v[i, a] += half_dt * f[i, a] * inv_mass[i]
-                omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]
-        if drift:
-            ${drift}
+        ${integrate}
     return need, bad
 
 
@@ -308,8 +344,11 @@ def drift_pass(s, n, dt, half_skin_sq, gravity):
     half_dt = 0.5 * dt
     need = 0
     bad = n
+    kick = False
+    drift = True
     for i in prange(n):
-        ${drift}
+        ${read_totals}
+        ${integrate}
     return need, bad
 '''
 
@@ -325,12 +364,12 @@ for q in range(rstart[i], rstart[i + 1]):
     gfy -= reaction[q, 1]
     gfz -= reaction[q, 2]
     ${gather_torque}
-f[i, 0] = gfx + f[i, 0]
-f[i, 1] = gfy + f[i, 1]
-f[i, 2] = gfz + f[i, 2]
-torque[i, 0] = gtx + torque[i, 0]
-torque[i, 1] = gty + torque[i, 1]
-torque[i, 2] = gtz + torque[i, 2]
+ftot0 = gfx + f[i, 0]
+ftot1 = gfy + f[i, 1]
+ftot2 = gfz + f[i, 2]
+ttot0 = gtx + torque[i, 0]
+ttot1 = gty + torque[i, 1]
+ttot2 = gtz + torque[i, 2]
 """
 #: the end of particle i's pairs: its own sum, stored (several threads) or added to what the pairs (i', i),
 #: i' < i, already subtracted from f[i] (one thread)
@@ -482,8 +521,6 @@ ${step_loop}
 
 # ---------------------------------------------------------------- filling the slots
 
-
-
 #: where a contact's history lives: pair k of the neighbor list, particle i's dense row of wall w, entry k of the
 #: sparse mesh contact list
 HISTORY = {"pair": "pair_hist[k, {h}]", "wall": "wall_hist[i, w, {h}]", "mesh": "mesh_hist[k, {h}]"}
@@ -564,10 +601,12 @@ def _particle_pass(c: Combination, parts: list) -> str:
                                 for name, o in c.reaction_columns().items() if name != "force")
         gather = render(GATHER, clear="".join(f"gf{a} = {g}\n" for a, g in zip("xyz", gravity_force)),
                         gather_torque=gather_torque)
-    clear = "" if c.parallel else "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)) + \
+    # several threads: the totals stay (the pair pass assigns f and torque anew); one thread: gravity, zero
+    clear = STORE_TOTALS if c.parallel else "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)) + \
         "torque[i, 0] = 0.0\ntorque[i, 1] = 0.0\ntorque[i, 2] = 0.0\n"
-    return render(PARTICLE_PASS, unpack=unpack("s", FIELD_NAMES), unpack_walls=unpack_walls, gather=gather,
-                  walls=walls, drift=render(DRIFT, clear=clear))
+    integrate = render(INTEGRATE, clear=clear, store_totals=STORE_TOTALS)
+    return render(PARTICLE_PASS, unpack=unpack("s", FIELD_NAMES), unpack_walls=unpack_walls,
+                  gather=gather or READ_TOTALS, walls=walls, integrate=integrate, read_totals=READ_TOTALS)
 
 
 def _step_loop(c: Combination, parts: list) -> str:

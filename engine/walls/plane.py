@@ -14,7 +14,7 @@ from .shape import AXES, KernelPart, WallShape, numbers, rows, unit
 #: exact zeros, and + 0.0 turns the -0.0 of sign * 0.0 into +0.0.
 PLANE_CONTACTS = """\
 near = plane_near[i]
-for w in range(nplanes):
+for w in range(nplanes if near != 0 or nplanes > PLANE_BITS else 0):  # near == 0: none in reach, nothing to test
     if w < PLANE_BITS and (near >> w) & 1 == 0:
         continue  # out of reach since the last rebuild: no contact, no history (PLANE_REACH)
     nx = plane_normal[w, 0]
