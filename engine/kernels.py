@@ -260,26 +260,11 @@ ttot2 += tiz
 INTEGRATE = """\
 inv_mi = inv_mass[i]
 inv_ii = inv_inertia[i]
-v0 = v[i, 0]
-v1 = v[i, 1]
-v2 = v[i, 2]
-w0 = omega[i, 0]
-w1 = omega[i, 1]
-w2 = omega[i, 2]
+${load}
 if kick:
-    v0 += half_dt * ftot0 * inv_mi
-    w0 += half_dt * ttot0 * inv_ii
-    v1 += half_dt * ftot1 * inv_mi
-    w1 += half_dt * ttot1 * inv_ii
-    v2 += half_dt * ftot2 * inv_mi
-    w2 += half_dt * ttot2 * inv_ii
+    ${half_kick}
 if drift:
-    v0 += half_dt * ftot0 * inv_mi
-    v1 += half_dt * ftot1 * inv_mi
-    v2 += half_dt * ftot2 * inv_mi
-    w0 += half_dt * ttot0 * inv_ii
-    w1 += half_dt * ttot1 * inv_ii
-    w2 += half_dt * ttot2 * inv_ii
+    ${half_kick}
     x0 = x[i, 0] + dt * v0
     x1 = x[i, 1] + dt * v1
     x2 = x[i, 2] + dt * v2
@@ -304,6 +289,8 @@ omega[i, 0] = w0
 omega[i, 1] = w1
 omega[i, 2] = w2
 """
+#: v += dt/2 F/m, omega += dt/2 T/I (I = 0.4 m r^2, inv_inertia)
+HALF_KICK = "".join(f"v{a} += half_dt * ftot{a} * inv_mi\nw{a} += half_dt * ttot{a} * inv_ii\n" for a in range(3))
 STORE_TOTALS = ("f[i, 0] = ftot0\nf[i, 1] = ftot1\nf[i, 2] = ftot2\ntorque[i, 0] = ttot0\ntorque[i, 1] = ttot1\n"
                 "torque[i, 2] = ttot2\n")
 #: one thread, no gathering: the totals start from what the pair pass left in f and torque
@@ -604,7 +591,8 @@ def _particle_pass(c: Combination, parts: list) -> str:
     # several threads: the totals stay (the pair pass assigns f and torque anew); one thread: gravity, zero
     clear = STORE_TOTALS if c.parallel else "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)) + \
         "torque[i, 0] = 0.0\ntorque[i, 1] = 0.0\ntorque[i, 2] = 0.0\n"
-    integrate = render(INTEGRATE, clear=clear, store_totals=STORE_TOTALS)
+    load = "".join(f"{local}{a} = {array}[i, {a}]\n" for local, array in (("v", "v"), ("w", "omega")) for a in range(3))
+    integrate = render(INTEGRATE, clear=clear, store_totals=STORE_TOTALS, half_kick=HALF_KICK, load=load)
     return render(PARTICLE_PASS, unpack=unpack("s", FIELD_NAMES), unpack_walls=unpack_walls,
                   gather=gather or READ_TOTALS, walls=walls, integrate=integrate, read_totals=READ_TOTALS)
 
