@@ -15,13 +15,11 @@ import numpy as np
 from . import guards, memory, modifiers, quantities, regions, runner
 from . import state as particle_state
 from .errors import InputError, RunFailure
-from .kernels import COHESION_MODELS, NORMAL_MODELS, ROLLING_MODELS, TANGENTIAL_MODELS
-from .quantities import AXES
+from .models import SUBMODELS, choices, coefficients, options
 from .restart import read_restart, write_restart
 from .scene import lattice_points, random_packing, region_bounds
 from .script import Fields
-from . import mesh
-from .walls import SHAPES, of_shape, ordered
+from .walls import SHAPES, set_walls
 
 #: largest material type number (the pair parameter table has MAX^2 rows of its columns)
 MAX_MATERIAL_TYPE = 1000
@@ -67,6 +65,7 @@ def create_material(sim, fields: Fields):
 
 
 def create_interaction(sim, fields: Fields):
+    """The coefficients of a pair of material types: those every submodel declares (models.SUBMODELS)."""
     types = fields.raw("types", required=True)
     if not (isinstance(types, list) and len(types) == 2 and all(isinstance(t, int) and not isinstance(t, bool)
                                                                 for t in types)):
@@ -74,23 +73,22 @@ def create_interaction(sim, fields: Fields):
     for t in types:
         if t not in sim.materials:
             raise fields.error("types", f"names unknown material type {t}")
-    e = fields.number("restitution", required=True)
-    if not 0.0 < e <= 1.0:
-        raise fields.error("restitution", f"must be in (0, 1], got {e:g}")
-    sim.interactions[(min(types), max(types))] = dict(
-        restitution=e,
-        friction=fields.number("friction", 0.0, minimum=0.0),
-        rolling_friction=fields.number("rolling_friction", 0.0, minimum=0.0),
-        cohesion_energy_density=fields.number("cohesion_energy_density", 0.0, minimum=0.0))
+    values = {}
+    for coefficient in coefficients():
+        value = fields.number(coefficient.name, coefficient.default, required=coefficient.default is None,
+                              minimum=coefficient.minimum)
+        problem = coefficient.check(value) if coefficient.check else ""
+        if problem:
+            raise fields.error(coefficient.name, problem)
+        values[coefficient.name] = value
+    sim.interactions[(min(types), max(types))] = values
 
 
 def create_contact_model(sim, fields: Fields):
-    model = dict(normal=fields.string("normal", required=True, choices=NORMAL_MODELS),
-                 tangential=fields.string("tangential", "none", choices=TANGENTIAL_MODELS),
-                 cohesion=fields.string("cohesion", "none", choices=COHESION_MODELS),
-                 rolling=fields.string("rolling", "none", choices=ROLLING_MODELS),
-                 limit_force=fields.boolean("limit_force", False),
-                 tangential_damping=fields.boolean("tangential_damping", True))
+    """A law per kind of submodel (models.SUBMODELS) and their options."""
+    model = {kind: fields.string(kind, None if sub.required else sub.default, required=sub.required,
+                                 choices=choices(kind)) for kind, sub in SUBMODELS.items()}
+    model.update({name: fields.boolean(name, option.default) for name, option in options().items()})
     velocity = fields.number("characteristic_velocity", None, positive=True)
     if model["normal"] == "hooke" and velocity is None:
         raise fields.error("characteristic_velocity", "is missing (the Hooke model needs it, m/s)")
@@ -100,122 +98,16 @@ def create_contact_model(sim, fields: Fields):
     sim.model = model
 
 
-def _unit(fields: Fields, name: str, default=None, required=False):
-    """A direction: a vector of 3 numbers, not zero, returned as a unit vector (the given one divided by its
-    length; an exact axis stays exact)."""
-    value = fields.vector(name, default=default, required=required)
-    if value is None:
-        return None
-    norm = math.sqrt(sum(v * v for v in value))
-    if not (norm > 0.0 and math.isfinite(norm)):
-        raise fields.error(name, f"must be a direction (a non-zero vector), got {value}")
-    return [v / norm for v in value]
-
-
-def _axis_or_vector(fields: Fields, name: str, required=False):
-    """'x', 'y', 'z' or a vector: a unit direction."""
-    value = fields.raw(name)
-    if isinstance(value, str):
-        axis = AXES[fields.string(name, choices=tuple(AXES))]
-        return [1.0 if a == axis else 0.0 for a in range(3)]
-    return _unit(fields, name, required=required)
-
-
 def create_wall(sim, fields: Fields):
-    """A plane, cylinder or mesh wall (engine/walls.py; the fields are in engine/README.md)."""
+    """A wall of one of the shapes of engine.walls (the fields are in engine/README.md)."""
     name = fields.string("name", required=True)
     if any(w["name"] == name for w in sim.walls):
         raise fields.error("name", f"'{name}' is already a wall")
-    shape = fields.string("shape", required=True, choices=SHAPES)
+    shape = fields.string("shape", required=True, choices=tuple(SHAPES))
     wall = dict(name=name, shape=shape, type=material_type(sim, fields))
-    triangles = None
-    if shape == "plane":
-        if fields.has("axis") or fields.has("position"):  # an axis plane: the point on that axis
-            axis = AXES[fields.string("axis", required=True, choices=tuple(AXES))]
-            position = fields.number("position", required=True)
-            wall["point"] = [position if a == axis else 0.0 for a in range(3)]
-            wall["normal"] = [1.0 if a == axis else 0.0 for a in range(3)]
-        else:
-            wall["point"] = fields.vector("point", required=True)
-            wall["normal"] = _unit(fields, "normal", required=True)
-        wall["velocity"] = fields.vector("velocity", default=[0.0, 0.0, 0.0])
-        bounds = fields.mapping("bounds")
-        if bounds is not None:
-            sub = Fields(bounds, fields.where + ", bounds")
-            lo, hi = sub.vector("lo", required=True), sub.vector("hi", required=True)
-            if any(h < l for l, h in zip(lo, hi)):
-                raise sub.error("hi", "must be >= 'lo' on every axis")
-            sub.finish()
-            wall["bounds"] = dict(lo=lo, hi=hi)
-    elif shape == "cylinder":
-        if fields.has("center"):  # along z through (cx, cy)
-            cx, cy = fields.vector("center", 2, required=True)
-            wall["point"], wall["axis"] = [cx, cy, 0.0], [0.0, 0.0, 1.0]
-        else:
-            wall["point"] = fields.vector("point", required=True)
-            wall["axis"] = _axis_or_vector(fields, "axis", required=True)
-        wall["radius"] = fields.number("radius", required=True, positive=True)
-        wall["side"] = fields.string("side", "inside", choices=("inside", "outside"))
-        wall["angular_velocity"] = fields.number("angular_velocity", 0.0)
-        extent = fields.vector("extent", 2)
-        if extent is not None and extent[1] <= extent[0]:
-            raise fields.error("extent", "must be [low, high] along the axis with high > low")
-        wall["extent"] = extent
-    else:
-        triangles = load_mesh(sim, fields, wall)
-    set_walls(sim, sim.walls + [wall], fresh_history=True, triangles={name: triangles} if triangles is not None
-              else {})
-
-
-def load_mesh(sim, fields: Fields, wall: dict) -> np.ndarray:
-    """The placed triangles of a mesh wall's STL file; its placement and motion go into the wall dict."""
-    wall["file"] = fields.string("file", required=True)
-    wall["scale"] = fields.number("scale", 1.0, positive=True)
-    rotate = fields.mapping("rotate")
-    if rotate is not None:
-        sub = Fields(rotate, fields.where + ", rotate")
-        rotate = dict(axis=_axis_or_vector(sub, "axis", required=True), angle=sub.number("angle", required=True))
-        sub.finish()
-    wall["rotate"] = rotate
-    wall["translate"] = fields.vector("translate", default=[0.0, 0.0, 0.0])
-    wall["velocity"] = fields.vector("velocity", default=[0.0, 0.0, 0.0])
-    rotation = fields.mapping("rotation")
-    if rotation is not None:
-        sub = Fields(rotation, fields.where + ", rotation")
-        rotation = dict(point=sub.vector("point", default=[0.0, 0.0, 0.0]),
-                        axis=_axis_or_vector(sub, "axis", required=True),
-                        angular_velocity=sub.number("angular_velocity", required=True))
-        sub.finish()
-    wall["rotation"] = rotation
-    try:
-        triangles = mesh.read_stl(wall["file"])
-    except mesh.MeshError as exc:
-        raise fields.error("file", str(exc)) from None
-    triangles = mesh.place(triangles, wall["scale"], (rotate["axis"], rotate["angle"]) if rotate else None,
-                           wall["translate"])
-    flat = mesh.degenerate(triangles)
-    if len(flat):
-        raise fields.error("file", f"'{wall['file']}' has {len(flat)} triangle(s) of zero area (the first is "
-                           f"triangle {int(flat[0]) + 1}); they have no normal")
-    sim.log.info(f"mesh wall '{wall['name']}': {len(triangles)} triangles from {wall['file']}, bounding box "
-                 f"{triangles.reshape(-1, 3).min(axis=0).tolist()} .. {triangles.reshape(-1, 3).max(axis=0).tolist()} m")
-    return triangles
-
-
-def set_walls(sim, walls, fresh_history, triangles=None):
-    """sim's walls (ordered), keeping what moved: plane points and mesh angles and shifts by wall name."""
-    old_points = {w["name"]: p for w, p in zip(of_shape(sim.walls, "plane"), sim.plane_point)}
-    old_motion = {w["name"]: (a, s) for w, a, s in zip(of_shape(sim.walls, "mesh"), sim.mesh_angle,
-                                                         sim.mesh_shift)}
-    sim.walls = ordered(walls)  # wall history columns: planes, cylinders, meshes
-    sim.mesh_triangles.update(triangles or {})
-    sim.plane_point = np.array([old_points.get(w["name"], w["point"]) for w in of_shape(sim.walls, "plane")],
-                               dtype=np.float64).reshape(-1, 3)
-    motion = [old_motion.get(w["name"], (0.0, np.zeros(3))) for w in of_shape(sim.walls, "mesh")]
-    sim.mesh_angle = np.array([m[0] for m in motion], dtype=np.float64)
-    sim.mesh_shift = np.array([m[1] for m in motion], dtype=np.float64).reshape(-1, 3)
-    if fresh_history:
-        sim.state = particle_state.fit_wall_history(sim.state, 0, 0)
+    triangles = SHAPES[shape].parse(sim, fields, wall)
+    set_walls(sim, sim.walls + [wall], triangles={name: triangles} if triangles is not None else {})
+    sim.state = particle_state.fit_wall_history(sim.state, 0, 0)
 
 
 def particle_bytes(sim) -> int:

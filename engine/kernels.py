@@ -20,56 +20,32 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
-import re
-import string
 import sys
 from collections import namedtuple
-from dataclasses import dataclass
+from dataclasses import field, make_dataclass
 
+from .contact_laws import slip_velocity
 from .jit import cache_dir
-from .models import LAWS, PARAMETERS, SUBMODELS, choices
+from .models import LAWS, PARAMETERS, SUBMODELS, options
 from .state import FIELD_NAMES
-from .walls import WALL_FIELDS
+from .templates import render, unpack
+from .walls import SHAPES, WALL_FEATURES, WALL_FIELDS
 
 #: scalars and small arrays every step reads: dt (s), characteristic velocity (m/s, Hooke), gravity (m/s^2, 3),
 #: domain lo, hi (m, 3), periodic (3 booleans), skin (m). The fields of a namedtuple that compiled code
 #: receives are part of its cache key (engine/jit.py).
-Constants = namedtuple("Constants", ["dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin"])
+Constants = namedtuple("Constants", ["dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin",
+                                     "history_transfer"])
 
-NORMAL_MODELS = choices("normal")
-TANGENTIAL_MODELS = choices("tangential")
-COHESION_MODELS = choices("cohesion")
-ROLLING_MODELS = choices("rolling")
-
-
-@dataclass(frozen=True)
-class Combination:
-    """Everything that changes the compiled code of a scene (parallel: loops compiled for several threads)."""
-
-    normal: str = "hertz"
-    tangential: str = "history"
-    cohesion: str = "none"
-    rolling: str = "none"
-    limit_force: bool = False
-    tangential_damping: bool = True
-    planes: bool = False
-    bounded_planes: bool = False
-    cylinders: bool = False
-    cylinder_spin: bool = False
-    cylinder_extent: bool = False
-    meshes: bool = False
-    mesh_motion: bool = False
-    mesh_rotation: bool = False
-    gravity: bool = False
-    periodic: tuple = (False, False, False)
-    parallel: bool = False
+class _CombinationLogic:
+    """What the builder derives from a Combination (its fields: see `Combination`)."""
 
     def law(self, submodel: str):
         """The law named for a submodel, or None ('none')."""
         return LAWS.get((submodel, getattr(self, submodel)))
 
     def laws(self) -> list:
-        """The named laws in evaluation order (normal -> cohesion -> tangential -> rolling, physics.md)."""
+        """The named laws in evaluation order (models.SUBMODELS: normal -> cohesion -> tangential -> rolling)."""
         return [law for law in (self.law(kind) for kind in SUBMODELS) if law is not None]
 
     def parameter_columns(self) -> dict:
@@ -86,6 +62,10 @@ class Combination:
                 width += law.history
         return offsets
 
+    def history_transfer(self) -> tuple:
+        """Per history column, the factor its value takes when the pair's i and j swap roles (Law.transfer)."""
+        return tuple(law.transfer for law in self.laws() for _ in range(law.history))
+
     def reaction_columns(self) -> dict:
         """What a pair leaves for its partner j: the force (3 columns) and, per submodel that turns j, its torque
         contribution (3 columns) -> first column in the neighbor list's `reaction` rows. None on one thread
@@ -93,8 +73,8 @@ class Combination:
         if not self.parallel:
             return {}
         columns = {"force": 0}
-        for kind in ("tangential", "rolling"):
-            if self.law(kind) is not None:
+        for kind, sub in SUBMODELS.items():
+            if sub.partner and self.law(kind) is not None:
                 columns[kind] = 3 * len(columns)
         return columns
 
@@ -103,34 +83,37 @@ class Combination:
         return 3 * len(self.reaction_columns())
 
     @property
+    def has_walls(self) -> bool:
+        return any(getattr(self, shape.features[0]) for shape in SHAPES.values())
+
+    @property
     def history_width(self) -> int:
         """Doubles stored per contact (3 for the shear displacement, 3 for the EPSD2 rolling torque)."""
         return sum(law.history for law in self.laws())
 
 
+#: Everything that changes the compiled code of a scene: a frozen dataclass with a field per kind of submodel
+#: (the law's name, models.SUBMODELS) and per option of the contact model (models.options), a flag per wall
+#: feature (walls.WALL_FEATURES), gravity, the periodic axes and parallel (loops compiled for several threads)
+Combination = make_dataclass(
+    "Combination",
+    [(kind, str, field(default=sub.default)) for kind, sub in SUBMODELS.items()]
+    + [(name, bool, field(default=option.default)) for name, option in options().items()]
+    + [(name, bool, field(default=False)) for name in WALL_FEATURES]
+    + [("gravity", bool, field(default=False)), ("periodic", tuple, field(default=(False, False, False))),
+       ("parallel", bool, field(default=False))],
+    bases=(_CombinationLogic,), frozen=True)
+
+
 # ---------------------------------------------------------------- templates
-
-_BLOCK_SLOT = re.compile(r"^(?P<indent>[ ]*)\$\{(?P<name>\w+)\}[ ]*$", re.M)
-
-
-def render(template: str, **slots) -> str:
-    """template with its slots filled (module docstring); every slot must be given."""
-    def block(m):
-        code = slots[m["name"]]
-        return "\n".join(m["indent"] + line if line.strip() else "" for line in code.splitlines())
-    return string.Template(_BLOCK_SLOT.sub(block, template)).substitute(slots)
-
 
 #: force of one contact on i; the geometry (d, en*, vr*, vn, reff, meff, ...) is computed by the loop around it
 CONTACT = """\
-${normal}
-${limit_force}
-${cohesion}
+${before_force}
 fx = fn * enx
 fy = fn * eny
 fz = fn * enz
-${tangential}
-${rolling}
+${after_force}
 fix += fx
 fiy += fy
 fiz += fz
@@ -154,38 +137,10 @@ wrz = cri * wiz
 vtx, vty, vtz = slip_velocity(vrx, vry, vrz, vn, enx, eny, enz, wrx, wry, wrz)
 """}
 
-#: the force of the slot acts at the contact point: torque -cr (en x Ft) on both partners (physics.md)
-TANGENTIAL = """\
-${damping}
-${slip}
-${law}
-fx += ftx
-fy += fty
-fz += ftz
-tqx = -(eny * ftz - enz * fty)
-tqy = -(enz * ftx - enx * ftz)
-tqz = -(enx * fty - eny * ftx)
-tix += cri * tqx
-tiy += cri * tqy
-tiz += cri * tqz
-${partner}
-"""
-TANGENTIAL_PARTNER = {True: "reaction[q, ${o}] = crj * tqx\nreaction[q, ${o1}] = crj * tqy\nreaction[q, ${o2}] = crj * tqz\n",
-                      False: "torque[j, 0] += crj * tqx\ntorque[j, 1] += crj * tqy\ntorque[j, 2] += crj * tqz\n"}
-
 RELATIVE_SPIN = {False: "wrelx = wix - omega[j, 0]\nwrely = wiy - omega[j, 1]\nwrelz = wiz - omega[j, 2]\n",
                  True: "wrelx = wix\nwrely = wiy\nwrelz = wiz\n"}
-ROLLING = """\
-${spin}
-${law}
-tix -= rtx
-tiy -= rty
-tiz -= rtz
-${partner}
-"""
-ROLLING_PARTNER = {True: "reaction[q, ${o}] = rtx\nreaction[q, ${o1}] = rty\nreaction[q, ${o2}] = rtz\n",
-                   False: "torque[j, 0] += rtx\ntorque[j, 1] += rty\ntorque[j, 2] += rtz\n"}
-
+#: what a law may need computed before its call (Law.needs), for pairs (False) and walls (True)
+NEEDS = {"slip": SLIP, "relative_spin": RELATIVE_SPIN}
 #: j takes the opposite force (Newton's third law). On several threads the pair leaves it in its row of
 #: `reaction` and j adds it up in the particle pass; on one thread i subtracts it from f[j] at once - the same
 #: operations on the same sums in the same order, so the same bytes. A wall takes it too (the force users can
@@ -280,252 +235,67 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box):
         ${own_sum}
 '''
 
-#: a wall has infinite radius and mass (R* = r_i, m* = m_i), its type's material; en points from the wall to
-#: the particle. A plane along an axis gives bitwise the values of a plane that knows its axis: (x - p).n adds
-#: exact zeros, and + 0.0 turns the -0.0 of sign * 0.0 into +0.0.
-PLANE_CONTACTS = """\
-near = plane_near[i]
-for w in range(nplanes):
-    if w < PLANE_BITS and (near >> w) & 1 == 0:
-        continue  # out of reach since the last rebuild: no contact, no history (PLANE_REACH)
-    nx = plane_normal[w, 0]
-    ny = plane_normal[w, 1]
-    nz = plane_normal[w, 2]
-    sep = (xi0 - plane_point[w, 0]) * nx + (xi1 - plane_point[w, 1]) * ny + (xi2 - plane_point[w, 2]) * nz
-    dist = abs(sep)
-    if dist >= ri:
-        ${reset_history}
-        continue
-    ${bounds}
-    sign = 1.0 if sep >= 0.0 else -1.0
-    enx = sign * nx + 0.0
-    eny = sign * ny + 0.0
-    enz = sign * nz + 0.0
-    d = ri - dist
-    tj = plane_type[w]
-    vrx = vix - plane_vel[w, 0]
-    vry = viy - plane_vel[w, 1]
-    vrz = viz - plane_vel[w, 2]
-    vn = vrx * enx + vry * eny + vrz * enz
-    ${contact}
-"""
-#: the planes a particle can touch before the next rebuild: its centre at the last rebuild (x_build) nearer than
-#: r + skin to the plane, since it moves at most skin/2 before the next rebuild (bit w of plane_near[i] for the
-#: first PLANE_BITS planes; planes after them, and planes moving along their normal, are always tested). A plane
-#: out of reach has no contact at any force evaluation until the next rebuild, so its history is zero: set
-#: here once, as each of those evaluations would set it. Recomputed after every rebuild and at every start of
-#: run_steps (walls may have changed between runs), from x_build: the same bits on any thread count and after
-#: a restart.
-PLANE_REACH = '''\
-@njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def plane_reach(s, n, walls, skin, plane_near):
-    """Bits of the planes within r + skin of each particle's centre at the last rebuild (see the template)."""
-    x_build = s.x_build
-    radius = s.radius
-    wall_hist = s.wall_hist
-    plane_point = walls.plane_point
-    plane_normal = walls.plane_normal
-    plane_vel = walls.plane_vel
-    nplanes = min(plane_point.shape[0], PLANE_BITS)
-    for i in prange(n):
-        near = 0
-        reach = radius[i] + skin
-        for w in range(nplanes):
-            nx = plane_normal[w, 0]
-            ny = plane_normal[w, 1]
-            nz = plane_normal[w, 2]
-            moving = plane_vel[w, 0] * nx + plane_vel[w, 1] * ny + plane_vel[w, 2] * nz != 0.0
-            sep = ((x_build[i, 0] - plane_point[w, 0]) * nx + (x_build[i, 1] - plane_point[w, 1]) * ny
-                   + (x_build[i, 2] - plane_point[w, 2]) * nz)
-            if moving or abs(sep) < reach:
-                near |= 1 << w
-            else:
-                for h in range(wall_hist.shape[2]):
-                    wall_hist[i, w, h] = 0.0
-        plane_near[i] = near
-'''
-PLANE_REACH_CALL = "plane_near = np.empty(n, dtype=np.int64)\nplane_reach(s, n, walls, skin, plane_near)\n"
-
-#: a bounded plane: contact only where the foot of the centre lies in the box lo..hi
-PLANE_BOUNDS = """\
-fx0 = xi0 - sep * nx
-fx1 = xi1 - sep * ny
-fx2 = xi2 - sep * nz
-if (fx0 < plane_lo[w, 0] or fx0 > plane_hi[w, 0] or fx1 < plane_lo[w, 1] or fx1 > plane_hi[w, 1]
-        or fx2 < plane_lo[w, 2] or fx2 > plane_hi[w, 2]):
-    ${reset_history}
-    continue
-"""
-#: en points inward for an inside wall, outward outside; rho the distance from the axis (for the z axis through
-#: (cx, cy, 0) bitwise sqrt((x - cx)^2 + (y - cy)^2))
-CYLINDER_CONTACTS = """\
-for q in range(cyl_radius.shape[0]):
-    w = nplanes + q
-    px = xi0 - cyl_point[q, 0]
-    py = xi1 - cyl_point[q, 1]
-    pz = xi2 - cyl_point[q, 2]
-    ax = cyl_axis[q, 0]
-    ay = cyl_axis[q, 1]
-    az = cyl_axis[q, 2]
-    along = px * ax + py * ay + pz * az
-    ${extent}
-    rx = px - along * ax
-    ry = py - along * ay
-    rz = pz - along * az
-    rho = sqrt(rx * rx + ry * ry + rz * rz)
-    if cyl_side[q] > 0:
-        dist = cyl_radius[q] - rho
-    else:
-        dist = rho - cyl_radius[q]
-    if dist >= ri or rho == 0.0:
-        ${reset_history}
-        continue
-    enx = -cyl_side[q] * rx / rho + 0.0
-    eny = -cyl_side[q] * ry / rho + 0.0
-    enz = -cyl_side[q] * rz / rho + 0.0
-    d = ri - dist
-    tj = cyl_type[q]
-    ${surface_velocity}
-    vn = vrx * enx + vry * eny + vrz * enz
-    ${contact}
-"""
-CYLINDER_EXTENT = """\
-if along < cyl_lo[q] or along > cyl_hi[q]:
-    ${reset_history}
-    continue
-"""
-#: a turning cylinder's surface moves at omega R (axis x radial unit vector) at the contact point
-CYLINDER_SPIN = """\
-spin = cyl_omega[q] * cyl_radius[q] / rho
-vrx = vix - spin * (ay * rz - az * ry)
-vry = viy - spin * (az * rx - ax * rz)
-vrz = viz - spin * (ax * ry - ay * rx)
-"""
-CYLINDER_STILL = "vrx = vix\nvry = viy\nvrz = viz\n"
-
-#: the triangles in particle i's rows of the mesh list (engine/mesh.py): closest point, region, and whether an
-#: edge or corner contact counts; a face contact has the face normal (as a plane), an edge or corner contact
-#: the direction from the closest point c to the centre
-MESH_CONTACTS = """\
-for k in range(mesh_start[i], mesh_start[i + 1]):
-    t = mesh_tri[k]
-    cx, cy, cz, region = closest_point(xi0, xi1, xi2, tri_v, t)
-    # every name below is set on every path: Numba's parallel loops treat a name that some path leaves unset
-    # as shared between threads
-    gx = xi0 - cx
-    gy = xi1 - cy
-    gz = xi2 - cz
-    nx = tri_n[t, 0]
-    ny = tri_n[t, 1]
-    nz = tri_n[t, 2]
-    sep = (xi0 - tri_v[t, 0, 0]) * nx + (xi1 - tri_v[t, 0, 1]) * ny + (xi2 - tri_v[t, 0, 2]) * nz
-    if region == 0:
-        dist = abs(sep)
-    else:
-        dist = sqrt(gx * gx + gy * gy + gz * gz)
-    if dist >= ri or dist == 0.0:
-        mesh_touch[k] = 0
-        continue
-    # an edge or corner contact with the centre right over it (a sphere rolling along the edge between two
-    # triangles of a flat face) takes the face's normal and distance, as on a plane, not the rounded c
-    over = region == 0 or dist - abs(sep) <= 1e-12 * dist
-    if region != 0:
-        if not over and tri_flat[t, region - 1] != 0:
-            # inside a flat part: a neighbouring face is nearer (engine/mesh.py flat_parts)
-            mesh_touch[k] = 0
-            continue
-        if not edge_or_corner_counts(xi0, xi1, xi2, cx, cy, cz, region, t, tri_v, tri_vid, fan_start, fan_tri,
-                                     1e-20 * ri * ri):
-            mesh_touch[k] = 0
-            continue
-    if over:
-        dist = abs(sep)
-        sign = 1.0 if sep >= 0.0 else -1.0
-        enx = sign * nx + 0.0
-        eny = sign * ny + 0.0
-        enz = sign * nz + 0.0
-    else:
-        enx = gx / dist
-        eny = gy / dist
-        enz = gz / dist
-    mesh_touch[k] = 1
-    ${take_history}
-    d = ri - dist
-    mk = tri_mesh[t]
-    w = mesh_wall0[0] + mk
-    tj = mesh_type[mk]
-    ${surface_velocity}
-    vn = vrx * enx + vry * eny + vrz * enz
-    ${contact}
-${reset_history}
-"""
-#: a new contact with no history looks for the history of a triangle of the same plane the particle leaves
-#: (engine/mesh.py take_coplanar_history); entries that are no contact lose their history after the loop, so
-#: that the order of the entries does not matter
-MESH_TAKE_HISTORY = """\
-fresh = True
-for h in range(${width}):
-    if mesh_hist[k, h] != 0.0:
-        fresh = False
-if fresh:
-    take_coplanar_history(mesh_hist, mesh_tri, mesh_touch, mesh_start[i], mesh_start[i + 1], k, tri_v, tri_n,
-                          1e-9 * ri)
-"""
-MESH_RESET = """\
-for k in range(mesh_start[i], mesh_start[i + 1]):
-    if mesh_touch[k] == 0:
-        for h in range(${width}):
-            mesh_hist[k, h] = 0.0
-"""
-#: a mesh's surface velocity at the contact point: its translation, plus omega a x (c - p) when it rotates
-MESH_VELOCITY = """\
-vrx = vix - mesh_vel[mk, 0]
-vry = viy - mesh_vel[mk, 1]
-vrz = viz - mesh_vel[mk, 2]
-"""
-MESH_SPIN = """\
-qx = cx - (mesh_point0[mk, 0] + mesh_shift[mk, 0])
-qy = cy - (mesh_point0[mk, 1] + mesh_shift[mk, 1])
-qz = cz - (mesh_point0[mk, 2] + mesh_shift[mk, 2])
-om = mesh_omega[mk]
-vrx -= om * (mesh_axis[mk, 1] * qz - mesh_axis[mk, 2] * qy)
-vry -= om * (mesh_axis[mk, 2] * qx - mesh_axis[mk, 0] * qz)
-vrz -= om * (mesh_axis[mk, 0] * qy - mesh_axis[mk, 1] * qx)
-"""
+#: a wall has infinite radius and mass (R* = r_i, m* = m_i); each shape's contacts (engine/walls/)
 WALLS = """\
 ${particle_head}
 reff = ri
 meff = mi
-${planes}
-${cylinders}
-${meshes}
-f[i, 0] += fix
-f[i, 1] += fiy
-f[i, 2] += fiz
-torque[i, 0] += tix
-torque[i, 1] += tiy
-torque[i, 2] += tiz
+${contacts}
+ftot0 += fix
+ftot1 += fiy
+ftot2 += fiz
+ttot0 += tix
+ttot1 += tiy
+ttot2 += tiz
 """
 
-#: fix nve/sphere: half kick of v and omega (I = 0.4 m r^2), drift; then the neighbor check (moved more than
-#: skin/2: rebuild; a non-finite position fails every comparison: the run stops naming the particle). On one
-#: thread the force and torque, read for the last time here, start the next evaluation (gravity, zero) in the
-#: same pass: no separate pass over the particles to clear them
-DRIFT = """\
-for a in range(3):
-    v[i, a] += half_dt * f[i, a] * inv_mass[i]
-    x[i, a] += dt * v[i, a]
-    omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]
-${clear}
-dx = x[i, 0] - x_build[i, 0]
-dy = x[i, 1] - x_build[i, 1]
-dz = x[i, 2] - x_build[i, 2]
-d2 = dx * dx + dy * dy + dz * dz
-if d2 > half_skin_sq:
-    need += 1
-elif not d2 <= half_skin_sq:
-    bad = min(bad, i)
+#: fix nve/sphere on particle i, whose total force and torque are ftot*, ttot* (read once): with kick, the
+#: second half kick of v and omega (I = 0.4 m r^2); with drift, the next step's first half kick and the drift,
+#: then the neighbor check (moved more than skin/2: rebuild; a non-finite position fails every comparison: the
+#: run stops naming the particle). Without drift (a chunk's last step, setup) the totals are stored for Python
+#: to read; with drift they are read for the last time here, and (on one thread) the force and torque start
+#: the next evaluation in the same pass (${clear}: gravity, zero): no separate pass to clear them. v, omega, x
+#: are kept in locals between the kicks and the drift - the same operations in the same order as updating the
+#: arrays in place, so the same bytes, without reloading what a store might have changed
+INTEGRATE = """\
+inv_mi = inv_mass[i]
+inv_ii = inv_inertia[i]
+${load}
+if kick:
+    ${half_kick}
+if drift:
+    ${half_kick}
+    x0 = x[i, 0] + dt * v0
+    x1 = x[i, 1] + dt * v1
+    x2 = x[i, 2] + dt * v2
+    x[i, 0] = x0
+    x[i, 1] = x1
+    x[i, 2] = x2
+    ${clear}
+    dx = x0 - x_build[i, 0]
+    dy = x1 - x_build[i, 1]
+    dz = x2 - x_build[i, 2]
+    d2 = dx * dx + dy * dy + dz * dz
+    if d2 > half_skin_sq:
+        need += 1
+    elif not d2 <= half_skin_sq:
+        bad = min(bad, i)
+else:
+    ${store_totals}
+v[i, 0] = v0
+v[i, 1] = v1
+v[i, 2] = v2
+omega[i, 0] = w0
+omega[i, 1] = w1
+omega[i, 2] = w2
 """
+#: v += dt/2 F/m, omega += dt/2 T/I (I = 0.4 m r^2, inv_inertia)
+HALF_KICK = "".join(f"v{a} += half_dt * ftot{a} * inv_mi\nw{a} += half_dt * ttot{a} * inv_ii\n" for a in range(3))
+STORE_TOTALS = ("f[i, 0] = ftot0\nf[i, 1] = ftot1\nf[i, 2] = ftot2\ntorque[i, 0] = ttot0\ntorque[i, 1] = ttot1\n"
+                "torque[i, 2] = ttot2\n")
+#: one thread, no gathering: the totals start from what the pair pass left in f and torque
+READ_TOTALS = ("ftot0 = f[i, 0]\nftot1 = f[i, 1]\nftot2 = f[i, 2]\nttot0 = torque[i, 0]\nttot1 = torque[i, 1]\n"
+               "ttot2 = torque[i, 2]\n")
 
 #: pass 2 of a force evaluation, per particle: on several threads gravity (F = m g, the first force), minus
 #: what the pairs (i, p) left for p in `reaction` - added in increasing i, exactly the order of the serial
@@ -550,12 +320,7 @@ def particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, kick, drift
     for i in prange(n):
         ${gather}
         ${walls}
-        if kick:
-            for a in range(3):
-                v[i, a] += half_dt * f[i, a] * inv_mass[i]
-                omega[i, a] += half_dt * torque[i, a] * inv_inertia[i]
-        if drift:
-            ${drift}
+        ${integrate}
     return need, bad
 
 
@@ -566,8 +331,11 @@ def drift_pass(s, n, dt, half_skin_sq, gravity):
     half_dt = 0.5 * dt
     need = 0
     bad = n
+    kick = False
+    drift = True
     for i in prange(n):
-        ${drift}
+        ${read_totals}
+        ${integrate}
     return need, bad
 '''
 
@@ -583,12 +351,12 @@ for q in range(rstart[i], rstart[i + 1]):
     gfy -= reaction[q, 1]
     gfz -= reaction[q, 2]
     ${gather_torque}
-f[i, 0] = gfx + f[i, 0]
-f[i, 1] = gfy + f[i, 1]
-f[i, 2] = gfz + f[i, 2]
-torque[i, 0] = gtx + torque[i, 0]
-torque[i, 1] = gty + torque[i, 1]
-torque[i, 2] = gtz + torque[i, 2]
+ftot0 = gfx + f[i, 0]
+ftot1 = gfy + f[i, 1]
+ftot2 = gfz + f[i, 2]
+ttot0 = gtx + torque[i, 0]
+ttot1 = gty + torque[i, 1]
+ttot2 = gtz + torque[i, 2]
 """
 #: the end of particle i's pairs: its own sum, stored (several threads) or added to what the pairs (i', i),
 #: i' < i, already subtracted from f[i] (one thread)
@@ -631,9 +399,8 @@ def setup(s, n, nbr, mnbr, walls, pp, c, step, lost):
     Returns (particles kept, neighbor list, mesh contact list)."""
     ${constants}
     box = hi - lo
-    n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)
-    ${mesh_rebuild}
-    ${plane_reach_start}
+    n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer)
+    ${wall_setup}
     ${clear_forces}
     pair_forces(s, n, nbr, pp, dt, char_vel, box)
     record = True
@@ -660,7 +427,7 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost):
     if nsteps == 0:
         return status, bad, done, rebuilds, n, nbr, mnbr
     t0 = now()
-    ${plane_reach_start}
+    ${wall_start}
     need, first_bad = drift_pass(s, n, dt, half_skin_sq, gravity)
     neigh = 0.0
     pair = 0.0
@@ -674,11 +441,10 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost):
             bad = first_bad
             break
         t1 = now()
-        ${mesh_travel}
+        ${wall_travel}
         if need > 0:
-            n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost)
-            ${mesh_rebuild}
-            ${plane_reach}
+            n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer)
+            ${wall_rebuild}
             rebuilds += 1
         t2 = now()
         pair_forces(s, n, nbr, pp, dt, char_vel, box)
@@ -708,34 +474,8 @@ lo = c.lo
 hi = c.hi
 periodic = c.periodic
 skin = c.skin
+transfer = c.history_transfer
 """
-
-#: the planes' points move with their velocity (each step, as LIGGGHTS' fix wall/gran moves its walls)
-MOVE_PLANES = """\
-for w in range(walls.plane_point.shape[0]):
-    for a in range(3):
-        walls.plane_point[w, a] += walls.plane_vel[w, a] * dt
-"""
-#: meshes: angle and shift advance, the corners are placed anew (engine/mesh.py); how far a corner may have
-#: moved since the last rebuild grows by the fastest mesh's corner speed
-MOVE_MESHES = """\
-fastest = 0.0
-for m in range(walls.mesh_angle.shape[0]):
-    ${turn}
-    for a in range(3):
-        walls.mesh_shift[m, a] += walls.mesh_vel[m, a] * dt
-    fastest = max(fastest, walls.mesh_speed[m])
-walls.travel[0] += fastest * dt
-${place}
-"""
-PLACE_TURNING = """\
-place_vertices(walls.tri_v0, walls.tri_mesh, walls.mesh_point0, walls.mesh_axis, walls.mesh_angle, walls.mesh_shift,
-               walls.tri_v, walls.tri_n, True)
-"""
-PLACE_SHIFTED = "shift_vertices(walls.tri_v0, walls.tri_mesh, walls.mesh_shift, walls.tri_v)\n"
-#: a mesh that may have moved by more than skin/2 since the last rebuild: rebuild (the particles' own criterion)
-MESH_TRAVEL = "if walls.travel[0] > 0.5 * skin:\n    need += 1\n"
-MESH_REBUILD = "mnbr = mesh_rebuild(s, n, mnbr, walls.tri_v, skin)\nwalls.travel[0] = 0.0\n"
 
 MODULE = '''\
 """Generated by engine.kernels for ${combination}; do not edit."""
@@ -749,9 +489,6 @@ from engine.jit import njit
 from engine.neighbor import PARALLEL, rebuild
 ${imports}
 
-#: planes whose reach is kept as bits of one int64 per particle (plane_reach)
-PLANE_BITS = 62
-
 
 ${pair_forces}
 
@@ -762,7 +499,7 @@ ${particle_pass}
 ${clear_forces}
 
 
-${plane_reach}
+${wall_functions}
 
 
 ${step_loop}
@@ -770,12 +507,6 @@ ${step_loop}
 
 
 # ---------------------------------------------------------------- filling the slots
-
-def _unpack(obj: str, fields) -> str:
-    """Fields of a state object as locals. Numba (0.68, issues 5872/7135) loses writes made through a
-    namedtuple's attribute inside a parallel loop; locals are safe everywhere."""
-    return "".join(f"{name} = {obj}.{name}\n" for name in fields)
-
 
 #: where a contact's history lives: pair k of the neighbor list, particle i's dense row of wall w, entry k of the
 #: sparse mesh contact list
@@ -791,37 +522,33 @@ def _law_call(c: Combination, law, place: str) -> str:
     return (law.pair if place == "pair" else law.wall_call).format(**names) + "\n"
 
 
+def _submodel_code(c: Combination, kind: str, place: str) -> str:
+    """A named submodel's code in a contact: its law's call inside its template (models.Submodel.applies), with
+    what the law needs computed first, the options of its kind and (pairs only) what the partner takes."""
+    sub, law = SUBMODELS[kind], c.law(kind)
+    if law is None:
+        return ""
+    wall = place != "pair"
+    partner = ""
+    if sub.partner and not wall:
+        o = c.reaction_columns().get(kind, 0)
+        partner = render(sub.partner[c.parallel], o=str(o), o1=str(o + 1), o2=str(o + 2))
+    options = {option.name: option.code.get(getattr(c, option.name), "") for option in sub.options}
+    needs = "".join(NEEDS[need][wall] for need in law.needs)
+    return render(sub.applies, law=_law_call(c, law, place), needs=needs, partner=partner, **options)
+
+
 def contact_code(c: Combination, place: str) -> str:
     """The force of one pair (place "pair") or particle-wall contact (a plane or cylinder: "wall", a mesh
     triangle: "mesh"), for the named laws only."""
-    tangential, rolling = c.law("tangential"), c.law("rolling")
-    cohesion = c.law("cohesion")
-    columns = c.reaction_columns()
-    wall = place != "pair"
-    tangential_code = rolling_code = ""
-
-    def partner(templates, submodel):
-        if wall:
-            return ""
-        o = columns.get(submodel, 0)
-        return render(templates[c.parallel], o=str(o), o1=str(o + 1), o2=str(o + 2))
-
-    if tangential is not None:
-        tangential_code = render(TANGENTIAL, damping="" if c.tangential_damping else "gt = 0.0",
-                                 slip=SLIP[wall] if "slip" in tangential.needs else "",
-                                 law=_law_call(c, tangential, place), partner=partner(TANGENTIAL_PARTNER, "tangential"))
-    if rolling is not None:
-        rolling_code = render(ROLLING, spin=RELATIVE_SPIN[wall] if "relative_spin" in rolling.needs else "",
-                              law=_law_call(c, rolling, place), partner=partner(ROLLING_PARTNER, "rolling"))
     if place == "pair":
         reaction = PAIR_REACTION[c.parallel]
     else:  # a mesh adds up the contacts of its triangles; its contact point comes from the triangle
         reaction = render(WALL_REACTION, op="+=" if place == "mesh" else "=",
                           point="" if place == "mesh" else WALL_POINT)
-    return render(CONTACT, normal=_law_call(c, c.law("normal"), place),
-                  limit_force="fn = max(fn, 0.0)" if c.limit_force else "",
-                  cohesion=_law_call(c, cohesion, place) if cohesion is not None else "",
-                  tangential=tangential_code, rolling=rolling_code, reaction=reaction)
+    before = "".join(_submodel_code(c, kind, place) for kind, sub in SUBMODELS.items() if sub.before_force)
+    after = "".join(_submodel_code(c, kind, place) for kind, sub in SUBMODELS.items() if not sub.before_force)
+    return render(CONTACT, before_force=before, after_force=after, reaction=reaction)
 
 
 def _reset_history(c: Combination, place: str) -> str:
@@ -830,77 +557,69 @@ def _reset_history(c: Combination, place: str) -> str:
     return render(RESET_HISTORY, width=str(c.history_width), target=HISTORY[place].format(h="h"))
 
 
-def generate_source(c: Combination) -> str:
-    """Python source of the compiled kernels for combination c."""
+def _gravity_force(c: Combination) -> tuple:
+    if c.gravity:
+        return "mass[i] * gravity[0]", "mass[i] * gravity[1]", "mass[i] * gravity[2]"
+    return "0.0", "0.0", "0.0"
+
+
+def _pair_forces(c: Combination) -> str:
     periodic = "".join(f"d{name} -= box[{a}] * np.rint(d{name} / box[{a}])\n"
                        for a, name in enumerate("xyz") if c.periodic[a])
-    unpack = _unpack("s", FIELD_NAMES)
     rows = c.parallel  # several threads: pair rows for the partner, gathered in the particle pass
-    pair_forces = render(PAIR_FORCES, unpack=unpack, particle_head=PARTICLE_HEAD, periodic_image=periodic,
-                         row="q = rslot[k]" if rows else "", reset_history=_reset_history(c, "pair"),
-                         zero_row=f"for h in range({c.reaction_width}):\n    reaction[q, h] = 0.0" if rows else "",
-                         contact=contact_code(c, "pair"), own_sum=OWN_SUM[rows])
-    has_walls = c.planes or c.cylinders or c.meshes
+    return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), particle_head=PARTICLE_HEAD,
+                  periodic_image=periodic, row="q = rslot[k]" if rows else "", reset_history=_reset_history(c, "pair"),
+                  zero_row=f"for h in range({c.reaction_width}):\n    reaction[q, h] = 0.0" if rows else "",
+                  contact=contact_code(c, "pair"), own_sum=OWN_SUM[rows])
+
+
+def _particle_pass(c: Combination, parts: list) -> str:
+    """The particle pass: gathering the pair rows (several threads), the walls' contacts, integration."""
     walls = unpack_walls = ""
-    if has_walls:
-        contact, reset = contact_code(c, "wall"), _reset_history(c, "wall")
-        planes = cylinders = meshes = ""
-        if c.planes:
-            bounds = render(PLANE_BOUNDS, reset_history=reset) if c.bounded_planes else ""
-            planes = render(PLANE_CONTACTS, reset_history=reset, contact=contact, bounds=bounds)
-        if c.cylinders:
-            cylinders = render(CYLINDER_CONTACTS, reset_history=reset, contact=contact,
-                               extent=render(CYLINDER_EXTENT, reset_history=reset) if c.cylinder_extent else "",
-                               surface_velocity=CYLINDER_SPIN if c.cylinder_spin else CYLINDER_STILL)
-        if c.meshes:
-            width = str(c.history_width)
-            meshes = render(MESH_CONTACTS, contact=contact_code(c, "mesh"),
-                            take_history=render(MESH_TAKE_HISTORY, width=width) if c.history_width else "",
-                            reset_history=render(MESH_RESET, width=width) if c.history_width else "",
-                            surface_velocity=MESH_VELOCITY + (MESH_SPIN if c.mesh_rotation else ""))
-        walls = render(WALLS, particle_head=PARTICLE_HEAD, planes=planes, cylinders=cylinders, meshes=meshes)
-        unpack_walls = _unpack("walls", WALL_FIELDS[:-2]) + "nplanes = plane_point.shape[0]\n"
-    if c.gravity:
-        gravity_force = "mass[i] * gravity[0]", "mass[i] * gravity[1]", "mass[i] * gravity[2]"
-    else:
-        gravity_force = "0.0", "0.0", "0.0"
-    gather = clear_forces = clear_call = ""
-    if rows:
+    if c.has_walls:
+        contacts = "".join(part.contacts(lambda place: contact_code(c, place),
+                                         lambda place: _reset_history(c, place)) for part in parts)
+        walls = render(WALLS, particle_head=PARTICLE_HEAD, contacts=contacts)
+        unpack_walls = unpack("walls", WALL_FIELDS[:-2]) + "nplanes = plane_point.shape[0]\n"
+    gravity_force = _gravity_force(c)
+    gather = ""
+    if c.parallel:
         gather_torque = "".join(f"gtx += reaction[q, {o}]\ngty += reaction[q, {o + 1}]\ngtz += reaction[q, {o + 2}]\n"
                                 for name, o in c.reaction_columns().items() if name != "force")
         gather = render(GATHER, clear="".join(f"gf{a} = {g}\n" for a, g in zip("xyz", gravity_force)),
                         gather_torque=gather_torque)
-    else:
-        clear_forces = render(CLEAR_FORCES, clear="".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)))
-        clear_call = "clear_forces(s, n, gravity)"
-    drift = render(DRIFT, clear="" if rows else "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force))
-                   + "torque[i, 0] = 0.0\ntorque[i, 1] = 0.0\ntorque[i, 2] = 0.0\n")
-    particle_pass = render(PARTICLE_PASS, unpack=unpack, unpack_walls=unpack_walls, gather=gather, walls=walls,
-                           drift=drift)
-    move_walls = (MOVE_PLANES if c.planes else "") + (
-        render(MOVE_MESHES, place=PLACE_TURNING if c.mesh_rotation else PLACE_SHIFTED,
-               turn="walls.mesh_angle[m] += walls.mesh_omega[m] * dt" if c.mesh_rotation else "") if c.mesh_motion
-        else "")
-    step_loop = render(STEP_LOOP, constants=CONSTANTS, move_walls=move_walls,
-                       mesh_travel=MESH_TRAVEL if c.mesh_motion else "",
-                       mesh_rebuild=MESH_REBUILD if c.meshes else "",
-                       nwalls="walls.force.shape[0]" if has_walls else "0", clear_forces=clear_call,
-                       wall_force_sum=WALL_FORCE_SUM if has_walls else "",
-                       plane_reach=PLANE_REACH_CALL if c.planes else "",
-                       plane_reach_start=PLANE_REACH_CALL if c.planes else "plane_near = np.empty(0, dtype=np.int64)")
-    called = sorted({fn for law in c.laws() for fn in law.functions}, key=lambda fn: fn.__name__)
+    # several threads: the totals stay (the pair pass assigns f and torque anew); one thread: gravity, zero
+    clear = STORE_TOTALS if c.parallel else "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)) + \
+        "torque[i, 0] = 0.0\ntorque[i, 1] = 0.0\ntorque[i, 2] = 0.0\n"
+    load = "".join(f"{local}{a} = {array}[i, {a}]\n" for local, array in (("v", "v"), ("w", "omega")) for a in range(3))
+    integrate = render(INTEGRATE, clear=clear, store_totals=STORE_TOTALS, half_kick=HALF_KICK, load=load)
+    return render(PARTICLE_PASS, unpack=unpack("s", FIELD_NAMES), unpack_walls=unpack_walls,
+                  gather=gather or READ_TOTALS, walls=walls, integrate=integrate, read_totals=READ_TOTALS)
+
+
+def _step_loop(c: Combination, parts: list) -> str:
+    def joined(hook):
+        return "".join(getattr(part, hook) for part in parts)
+    return render(STEP_LOOP, constants=CONSTANTS, move_walls=joined("move"), wall_travel=joined("travel"),
+                  wall_setup=joined("setup"), wall_start=joined("at_start"), wall_rebuild=joined("after_rebuild"),
+                  nwalls="walls.force.shape[0]" if c.has_walls else "0",
+                  clear_forces="" if c.parallel else "clear_forces(s, n, gravity)",
+                  wall_force_sum=WALL_FORCE_SUM if c.has_walls else "")
+
+
+def generate_source(c: Combination) -> str:
+    """Python source of the compiled kernels for combination c."""
+    parts = [shape.kernel(c) for shape in SHAPES.values()]
+    pair_forces, particle_pass, step_loop = _pair_forces(c), _particle_pass(c, parts), _step_loop(c, parts)
+    clear_forces = "" if c.parallel else render(CLEAR_FORCES, clear="".join(
+        f"f[i, {a}] = {g}\n" for a, g in enumerate(_gravity_force(c))))
     body = pair_forces + particle_pass + step_loop
-    if "slip_velocity(" in body:
-        from .contact_laws import slip_velocity
-        called.append(slip_velocity)
-    if c.meshes:  # the mesh geometry (engine/mesh.py) only where a scene has meshes
-        from . import mesh
-        called += [mesh.closest_point, mesh.edge_or_corner_counts, mesh.mesh_rebuild, mesh.place_vertices,
-                   mesh.shift_vertices, mesh.take_coplanar_history]
+    called = sorted({fn for law in c.laws() for fn in law.functions}, key=lambda fn: fn.__name__) + [slip_velocity]
+    called += [fn for part in parts for fn in part.calls]
     imports = "".join(f"from {fn.__module__} import {fn.__name__}\n" for fn in called if fn.__name__ + "(" in body)
     source = render(MODULE, combination=repr(c), imports=imports, pair_forces=pair_forces,
                     particle_pass=particle_pass, clear_forces=clear_forces, step_loop=step_loop,
-                    plane_reach=PLANE_REACH if c.planes else "")
+                    wall_functions="".join(part.functions for part in parts))
     # one thread: the loops compiled serially (prange is range there)
     return source if c.parallel else source.replace("parallel=PARALLEL", "parallel=False")
 

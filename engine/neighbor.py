@@ -11,8 +11,8 @@ threads, and the same as a serial half-list loop (engine/kernels.py).
 A rebuild (1) wraps periodic coordinates, (2) removes particles that left a fixed box, (3) re-orders the
 particles by cell so that neighbors are close in memory, (4) builds the list and its reverse index, and (5)
 carries every pair's contact history over to the new list (history rows follow their pair through the
-re-ordering; a pair that swaps its i/j roles gets its history negated, since every history vector we store
-is antisymmetric in i and j). The loops over particles run on all threads; what they write depends only on
+re-ordering; a pair that swaps its i/j roles gets each history column multiplied by its law's transfer factor,
+engine.models.Law.transfer: -1 for the vectors antisymmetric in i and j). The loops over particles run on all threads; what they write depends only on
 the particle, never on the thread count.
 """
 from collections import namedtuple
@@ -204,8 +204,9 @@ def _compact(found, slot, start, new_j):
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _carry_history(order, new_index, old, old_pair, new_start, new_j, new_hist):
-    """Each new pair takes the history of the same pair in the old list (negated when i and j swapped roles).
+def _carry_history(order, new_index, old, old_pair, new_start, new_j, new_hist, transfer):
+    """Each new pair takes the history of the same pair in the old list (times transfer, per column, when i and
+    j swapped roles).
 
     New particle p (old index order[p]) owns its pairs with larger new indices; it finds them among its old
     pairs as owner (old row) and as partner (old_pair: the pair k of each partner-ordered row). Every new row
@@ -232,7 +233,7 @@ def _carry_history(order, new_index, old, old_pair, new_start, new_j, new_hist):
                 pos = _find(row, a)
                 if pos >= 0:
                     for h in range(width):
-                        new_hist[new_start[p] + pos, h] = -old.hist[k, h]
+                        new_hist[new_start[p] + pos, h] = transfer[h] * old.hist[k, h]
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
@@ -243,16 +244,9 @@ def _copy_positions(x, x_build, n):
 
 
 @njit(cache=True, error_model="numpy")
-def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost):
-    """Rebuild the neighbor list of the first n particles of state s; see the module docstring.
-
-    The particle rows of s are re-ordered in place (lost particles dropped: the survivors fill the first rows).
-    lost: a LostParticles record, its count incremented per lost particle. Returns (particles kept, new list).
-    """
-    x = s.x
-    radius = s.radius
-    pid = s.pid
-    box = hi - lo
+def _drop_lost(x, n, lo, hi, periodic, pid, step, lost):
+    """Wrap periodic coordinates; the indices of the particles inside the fixed axes' range (the others are
+    recorded in lost)."""
     keep = np.empty(n, dtype=np.bool_)
     _wrap(x, n, lo, hi, periodic, keep)
     nk = 0
@@ -269,8 +263,14 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost):
         if keep[i]:
             kept[q] = i
             q += 1
+    return kept
 
-    # cell grid: periodic axes span the box, fixed axes only the particles' bounding box (memory ~ N)
+
+@njit(cache=True, error_model="numpy")
+def _grid(x, radius, kept, lo, box, periodic, skin):
+    """(origin, cell size, cells per axis) of the cell grid: periodic axes span the box, fixed axes only the
+    particles' bounding box (memory ~ N); cells at least the cutoff 2 r_max + skin."""
+    nk = kept.shape[0]
     rmax = 0.0
     for q in range(nk):
         rmax = max(rmax, radius[kept[q]])
@@ -303,10 +303,14 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost):
     cell_size = np.empty(3)
     for a in range(3):
         cell_size[a] = extent[a] / nc[a] if periodic[a] else cell
-    ncells = nc[0] * nc[1] * nc[2]
-    cell_of = np.empty(nk, dtype=np.int64)
-    _cells(x, kept, origin, cell_size, nc, cell_of)
-    # counting sort by cell: the new particle order (stable, so deterministic)
+    return origin, cell_size, nc
+
+
+@njit(cache=True, error_model="numpy")
+def _sort_by_cell(cell_of, kept, ncells, n):
+    """Counting sort of the kept particles by cell (stable, so deterministic): (new order as old indices, cell
+    of each new index, first new index of each cell, new index of each old one or -1)."""
+    nk = kept.shape[0]
     cell_start = np.zeros(ncells + 1, dtype=np.int64)
     for q in range(nk):
         cell_start[cell_of[q] + 1] += 1
@@ -323,11 +327,14 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost):
     new_index = -np.ones(n, dtype=np.int64)
     for q in range(nk):
         new_index[order[q]] = q
+    return order, new_cell, cell_start, new_index
 
-    reorder(s, order)
 
-    # pairs within cutoff_ij = r_i + r_j + skin, half list with i < j: candidates per particle (an upper
-    # bound), then the search into each particle's own slot, then the rows packed and sorted
+@njit(cache=True, error_model="numpy")
+def _pairs(x, radius, new_cell, cell_start, nc, periodic, box, skin):
+    """The half list (start, j) of the sorted particles: pairs within r_i + r_j + skin, i < j: candidates per
+    particle (an upper bound), then the search into each particle's own slot, then the rows packed and sorted."""
+    nk = new_cell.shape[0]
     slot = np.empty(nk + 1, dtype=np.int64)
     slot[0] = 0
     count = np.empty(nk, dtype=np.int64)
@@ -340,17 +347,38 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost):
     new_start[0] = 0
     for i in range(nk):
         new_start[i + 1] = new_start[i] + count[i]
-    m = new_start[nk]
-    new_j = np.empty(m, dtype=np.int32)
+    new_j = np.empty(new_start[nk], dtype=np.int32)
     _compact(found, slot, new_start, new_j)
+    return new_start, new_j
 
+
+@njit(cache=True, error_model="numpy")
+def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer):
+    """Rebuild the neighbor list of the first n particles of state s; see the module docstring.
+
+    The particle rows of s are re-ordered in place (lost particles dropped: the survivors fill the first rows).
+    lost: a LostParticles record, its count incremented per lost particle; transfer: per history column, the
+    factor of a pair whose i and j swap roles. Returns (particles kept, new list).
+    """
+    x = s.x
+    box = hi - lo
+    kept = _drop_lost(x, n, lo, hi, periodic, s.pid, step, lost)
+    nk = kept.shape[0]
+    origin, cell_size, nc = _grid(x, s.radius, kept, lo, box, periodic, skin)
+    ncells = nc[0] * nc[1] * nc[2]
+    cell_of = np.empty(nk, dtype=np.int64)
+    _cells(x, kept, origin, cell_size, nc, cell_of)
+    order, new_cell, cell_start, new_index = _sort_by_cell(cell_of, kept, ncells, n)
+    reorder(s, order)
+    new_start, new_j = _pairs(x, s.radius, new_cell, cell_start, nc, periodic, box, skin)
+    m = new_start[nk]
     width = nbr.hist.shape[1]
     new_hist = np.zeros((m if width > 0 else 0, width))
     if width > 0:
         old_pair = np.empty(nbr.rslot.shape[0], dtype=np.int64)  # the pair of each row (partner order)
         for k in range(old_pair.shape[0]):
             old_pair[nbr.rslot[k]] = k
-        _carry_history(order, new_index, nbr, old_pair, new_start, new_j, new_hist)
+        _carry_history(order, new_index, nbr, old_pair, new_start, new_j, new_hist, transfer)
     rstart, rslot = reverse_index(new_start, new_j, nk)
     _copy_positions(x, s.x_build, nk)
     return nk, NeighborList(new_start, new_j, new_hist, rstart, rslot, np.empty((m, nbr.reaction.shape[1])))

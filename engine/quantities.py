@@ -18,9 +18,9 @@ import numpy as np
 from . import regions
 from .errors import InputError
 from .neighbor import overlap_statistics
+from .script import AXES
 from .walls import reference_points
 
-AXES = {"x": 0, "y": 1, "z": 2}
 #: overlaps above this fraction of the smaller radius are reported (issue 2)
 OVERLAP_WARN_RATIO = 0.1
 

@@ -17,6 +17,7 @@ from .errors import InputError, output_failure
 from .mesh import MeshList
 from .neighbor import from_half_list
 from .script import Fields
+from .walls import of_shape, valid as valid_wall
 
 RESTART_FORMAT = 2
 #: restart file arrays of the neighbor list (the particle fields are stored under their names, state.py)
@@ -45,7 +46,7 @@ def write_restart(sim, path: str):
 def wall_arrays(sim) -> dict:
     """What the walls carry between runs: plane points, mesh triangles (as placed), angles and shifts, the
     last wall forces and torques, and the mesh contact list with its history."""
-    meshes = [w["name"] for w in sim.walls if w["shape"] == "mesh"]
+    meshes = [w["name"] for w in of_shape(sim.walls, "mesh")]
     triangles = [sim.mesh_triangles[name] for name in meshes]
     return dict(plane_point=sim.plane_point, wall_force=sim.wall_force, wall_torque=sim.wall_torque,
                 mesh_angle=sim.mesh_angle, mesh_shift=sim.mesh_shift, mesh_travel=sim.mesh_travel,
@@ -63,7 +64,7 @@ def _restore_walls(sim, data: dict, walls: list):
     sim.mesh_shift = data["mesh_shift"].copy()
     sim.mesh_travel = data["mesh_travel"].copy()
     bounds = np.concatenate([[0], np.cumsum(data["mesh_counts"])])
-    names = [w["name"] for w in walls if w["shape"] == "mesh"]
+    names = [w["name"] for w in of_shape(walls, "mesh")]
     sim.mesh_triangles = {name: data["mesh_triangles"][bounds[k]:bounds[k + 1]].copy() for k, name in enumerate(names)}
     sim.mesh_nbr = MeshList(data["mesh_start"].copy(), data["mesh_tri"].astype(np.int32),
                             data["mesh_hist"].copy(), np.zeros(len(data["mesh_tri"]), dtype=np.uint8),
@@ -187,12 +188,12 @@ def _check_restart(data: dict) -> list[dict]:
         walls = json.loads(str(data["walls"]))
     except ValueError as exc:
         raise ValueError(f"the wall list is not JSON ({exc})") from None
-    if not isinstance(walls, list) or not all(_wall_ok(w) for w in walls):
+    if not isinstance(walls, list) or not all(valid_wall(w) for w in walls):
         raise ValueError("the wall list is not a list of wall definitions")
-    planes = sum(1 for w in walls if w["shape"] == "plane")
+    planes = len(of_shape(walls, "plane"))
     if data["plane_point"].shape[0] != planes:
         raise ValueError(f"{data['plane_point'].shape[0]} plane points for {planes} planes")
-    meshes = sum(1 for w in walls if w["shape"] == "mesh")
+    meshes = len(of_shape(walls, "mesh"))
     if not (len(data["mesh_counts"]) == len(data["mesh_angle"]) == len(data["mesh_shift"]) == meshes
             and int(data["mesh_counts"].sum()) == len(data["mesh_triangles"]) and np.all(data["mesh_counts"] > 0)):
         raise ValueError(f"the mesh arrays do not fit the {meshes} mesh walls")
@@ -226,18 +227,3 @@ def _modifier_states(data: dict) -> dict:
                                                                           and not math.isfinite(value))):
                 raise ValueError(f"counter '{key}' of modifier '{name}' is not a finite number")
     return states
-
-
-def _wall_ok(w) -> bool:
-    def numbers(value, k):
-        return isinstance(value, list) and len(value) == k and all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
-    if not (isinstance(w, dict) and isinstance(w.get("name"), str) and isinstance(w.get("type"), int)):
-        return False
-    if w.get("shape") == "plane":
-        return numbers(w.get("point"), 3) and numbers(w.get("normal"), 3) and numbers(w.get("velocity"), 3)
-    if w.get("shape") == "mesh":
-        return isinstance(w.get("file"), str) and numbers(w.get("velocity"), 3)
-    return (w.get("shape") == "cylinder" and numbers(w.get("point"), 3) and numbers(w.get("axis"), 3)
-            and numbers([w.get("radius")], 1) and numbers([w.get("angular_velocity")], 1)
-            and w.get("side") in ("inside", "outside"))

@@ -14,6 +14,7 @@ from . import threads as thread_pool
 from . import state as particle_state
 from .errors import RunFailure
 from .kernels import Combination, Constants, build_kernel, parameter_table
+from .models import SUBMODELS, options
 from .neighbor import empty_list, lost_record
 from .quantities import OVERLAP_WARN_RATIO
 from .script import Fields
@@ -26,13 +27,10 @@ MAX_WALL_SPEED = 299_792_458.0
 
 
 def combination(sim, parallel: bool = False) -> Combination:
-    """The compiled code this scene needs: its submodels, wall shapes, gravity and periodic axes, and whether
-    its loops are compiled for several threads."""
-    m = sim.model
-    return Combination(parallel=parallel, normal=m["normal"], tangential=m["tangential"], cohesion=m["cohesion"],
-                       rolling=m["rolling"], limit_force=m["limit_force"],
-                       tangential_damping=m["tangential_damping"],
-                       **wall_features(sim.walls),
+    """The compiled code this scene needs: its submodels and their options, wall shapes, gravity and periodic
+    axes, and whether its loops are compiled for several threads."""
+    model = {name: sim.model[name] for name in (*SUBMODELS, *options())}
+    return Combination(parallel=parallel, **model, **wall_features(sim.walls),
                        gravity=any(mod.acceleration() is not None for mod in sim.active_modifiers()),
                        periodic=tuple(bool(p) for p in sim.periodic))
 
@@ -125,101 +123,115 @@ def next_stop(sim, end: int) -> int:
     return stop
 
 
-def run(sim, fields: Fields):
-    """The `run` command: `steps` time steps."""
-    steps = fields.integer("steps", required=True, minimum=0)
-    check_ready(sim, fields)
-    # the thread count of the whole run, from the particles at its start: one thread compiles serial loops
-    # (quicker to compile, no thread wake-ups); the bytes are the same either way
-    threads = thread_pool.use(sim.n, sim.threads)
-    combo = combination(sim, parallel=threads > 1)
+class _Kernel:
+    """What a run computes with: the compiled module, its combination, the wall arrays, the pair parameter
+    table and the constants."""
+
+    def __init__(self, sim, threads: int):
+        self.combo = combination(sim, parallel=threads > 1)
+        self.module = build_kernel(self.combo)
+        fit_history(sim, self.combo)
+        self.pp = parameter_table(self.combo, sim.materials, sim.interactions, max(sim.materials))
+        if sim.wall_force.shape[0] != len(sim.walls):
+            sim.wall_force = np.zeros((len(sim.walls), 3))
+            sim.wall_torque = np.zeros((len(sim.walls), 3))
+        self.walls = wall_set(sim)
+        self.constants = Constants(dt=sim.dt, characteristic_velocity=sim.model["characteristic_velocity"],
+                                   gravity=sim.gravity_vector(), lo=sim.lo, hi=sim.hi, periodic=sim.periodic,
+                                   skin=sim.skin, history_transfer=np.array(self.combo.history_transfer(),
+                                                                            dtype=np.float64))
+
+    def steps(self, sim, nsteps: int, timers, lost):
+        """nsteps compiled steps from sim's state (kernels.STEP_LOOP run_steps)."""
+        return self.module.run_steps(sim.state, sim.n, sim.nbr, sim.mesh_nbr, self.walls, self.pp, self.constants,
+                                     sim.step, nsteps, timers, lost)
+
+
+def _prepare(sim, fields: Fields, threads: int) -> tuple:
+    """The kernel compiled (or loaded) and the scene set up, outside the timed loop: fresh neighbor lists and
+    forces if particles were added or changed. Returns (kernel, largest overlap ratio now)."""
     t0 = time.perf_counter()
-    kernel = build_kernel(combo)
-    fit_history(sim, combo)
+    kernel = _Kernel(sim, threads)
     guards.check_timestep(sim, fields.where)
-    pp = parameter_table(combo, sim.materials, sim.interactions, max(sim.materials))
-    if sim.wall_force.shape[0] != len(sim.walls):
-        sim.wall_force = np.zeros((len(sim.walls), 3))
-        sim.wall_torque = np.zeros((len(sim.walls), 3))
-    walls = wall_set(sim)
-    constants = Constants(dt=sim.dt, characteristic_velocity=sim.model["characteristic_velocity"],
-                          gravity=sim.gravity_vector(), lo=sim.lo, hi=sim.hi, periodic=sim.periodic, skin=sim.skin)
-    started_with = sim.n
-    created = sim.dirty
     if sim.dirty:
         lost = lost_record(sim.n)
-        n, sim.nbr, sim.mesh_nbr = kernel.setup(sim.state, sim.n, sim.nbr, sim.mesh_nbr, walls, pp, constants,
-                                                sim.step, lost)
+        n, sim.nbr, sim.mesh_nbr = kernel.module.setup(sim.state, sim.n, sim.nbr, sim.mesh_nbr, kernel.walls,
+                                                       kernel.pp, kernel.constants, sim.step, lost)
         sim.state = particle_state.trimmed(sim.state, n)
-        guards.report_lost(sim, lost, fields.where, started_with)
-        sim.dirty = False
+        guards.report_lost(sim, lost, fields.where, sim.n + int(lost.count[0]))
     # a zero-step call compiles run_steps (or loads it from the disk cache) outside the timed loop
-    kernel.run_steps(sim.state, sim.n, sim.nbr, sim.mesh_nbr, walls, pp, constants, sim.step, 0, np.zeros(3),
-                     lost_record(0))
-    if combo.meshes:
+    kernel.steps(sim, 0, np.zeros(3), lost_record(0))
+    if kernel.combo.meshes:
         # the mesh contact list of the particles and mesh placement now (walls or particles may have changed
         # since the last run; the list only says which triangles are near, so building it anew changes no force)
-        sim.mesh_nbr = mesh_rebuild(sim.state, sim.n, sim.mesh_nbr, walls.tri_v, sim.skin)
+        sim.mesh_nbr = mesh_rebuild(sim.state, sim.n, sim.mesh_nbr, kernel.walls.tri_v, sim.skin)
     # the overlap check between chunks is compiled too: not inside the timed loop
     _, n_large, worst = quantities.overlaps(sim)
     sim.timing["compile"] += time.perf_counter() - t0  # first call of a kernel compiles or loads it
-    overlap_warned = False
-    max_overlap = worst
-    if created:
-        # particles created (or restored) overlapping: the run would start with a violent push apart; say
-        # so as the run-time check does (that one only looks after the first chunk of steps)
-        if n_large:
-            sim.log.warning(f"step {sim.step}: {n_large} contact(s) overlap more than "
-                            f"{OVERLAP_WARN_RATIO:.0%} of the smaller radius (max {worst:.1%}) at the start "
-                            "of the run")
-        n_wall, worst_wall = guards.wall_overlaps(sim)
-        if n_wall:
-            sim.log.warning(f"step {sim.step}: {n_wall} particle-wall contact(s) overlap more than "
-                            f"{OVERLAP_WARN_RATIO:.0%} of the radius (max {worst_wall:.1%}) at the start of "
-                            "the run")
-    start_wall = time.perf_counter()
-    start_cpu = time.process_time()  # CPU seconds too: on a shared machine wall time overstates the cost
-    start_step, start_time = sim.step, sim.time
-    timers = np.zeros(3)
-    particle_steps = 0
-    rebuilds = 0
-    sim.output.where = fields.where
-    # insert and outlet modifiers act before the output of their step (the thermo row counts what they did)
+    return kernel, n_large, worst
+
+
+def _warn_start_overlaps(sim, n_large: int, worst: float):
+    """Particles created (or restored) overlapping: the run would start with a violent push apart; say so as
+    the run-time check does (that one only looks after the first chunk of steps)."""
+    if n_large:
+        sim.log.warning(f"step {sim.step}: {n_large} contact(s) overlap more than "
+                        f"{OVERLAP_WARN_RATIO:.0%} of the smaller radius (max {worst:.1%}) at the start "
+                        "of the run")
+    n_wall, worst_wall = guards.wall_overlaps(sim)
+    if n_wall:
+        sim.log.warning(f"step {sim.step}: {n_wall} particle-wall contact(s) overlap more than "
+                        f"{OVERLAP_WARN_RATIO:.0%} of the radius (max {worst_wall:.1%}) at the start of "
+                        "the run")
+
+
+class _Progress:
+    """What the chunks of a run add up: timers [neigh, pair, modify] (s), particle-steps, rebuilds, the largest
+    overlap ratio seen, whether the overlap warning and which time step warnings were given."""
+
+    def __init__(self, worst: float):
+        self.timers = np.zeros(3)
+        self.particle_steps = 0
+        self.rebuilds = 0
+        self.max_overlap = worst
+        self.overlap_warned = False
+        self.timestep_warned: set = set()
+
+
+def _chunk(sim, fields: Fields, kernel: _Kernel, progress: _Progress, stop: int, started_with: int,
+           start_step: int, start_time: float):
+    """The steps up to the next stop in compiled code, then the checks and modifiers of that stop."""
+    n = sim.n
+    lost = lost_record(n)
+    status, bad, done, rebuilt, kept, sim.nbr, sim.mesh_nbr = kernel.steps(sim, stop - sim.step, progress.timers,
+                                                                          lost)
+    sim.state = particle_state.trimmed(sim.state, kept)
+    progress.particle_steps += done * n
+    progress.rebuilds += rebuilt
+    sim.step += done
+    sim.time = start_time + (sim.step - start_step) * sim.dt
+    if status == 1:
+        sim.step += 1
+        raise RunFailure(f"{fields.where}: non-finite position of particle {int(sim.state.pid[bad])} at "
+                         f"step {sim.step}")
+    guards.report_lost(sim, lost, fields.where, started_with)
+    guards.check_finite(sim, fields.where)
+    _, n_large, worst = quantities.overlaps(sim)
+    progress.max_overlap = max(progress.max_overlap, worst)
+    if n_large and not progress.overlap_warned:
+        progress.overlap_warned = True
+        sim.log.warning(f"step {sim.step}: {n_large} contact(s) overlap more than "
+                        f"{OVERLAP_WARN_RATIO:.0%} of the smaller radius (max {worst:.1%})")
+    blowup.check_overlap(sim, worst, fields.where)
+    if sim.timestep_every and sim.step % sim.timestep_every == 0:
+        guards.recheck_timestep(sim, fields.where, progress.timestep_warned)
     modifiers.change_particles(sim)
-    sim.output.write(sim, start=True)
-    timestep_warned: set = set()
-    end = start_step + steps
-    sim.output.end_step = end
-    while sim.step < end:
-        stop = next_stop(sim, end)
-        n = sim.n
-        lost = lost_record(n)
-        status, bad, done, rebuilt, kept, sim.nbr, sim.mesh_nbr = kernel.run_steps(
-            sim.state, n, sim.nbr, sim.mesh_nbr, walls, pp, constants, sim.step, stop - sim.step, timers, lost)
-        sim.state = particle_state.trimmed(sim.state, kept)
-        particle_steps += done * n
-        rebuilds += rebuilt
-        sim.step += done
-        sim.time = start_time + (sim.step - start_step) * sim.dt
-        if status == 1:
-            sim.step += 1
-            raise RunFailure(f"{fields.where}: non-finite position of particle {int(sim.state.pid[bad])} at "
-                             f"step {sim.step}")
-        guards.report_lost(sim, lost, fields.where, started_with)
-        guards.check_finite(sim, fields.where)
-        _, n_large, worst = quantities.overlaps(sim)
-        max_overlap = max(max_overlap, worst)
-        if n_large and not overlap_warned:
-            overlap_warned = True
-            sim.log.warning(f"step {sim.step}: {n_large} contact(s) overlap more than "
-                            f"{OVERLAP_WARN_RATIO:.0%} of the smaller radius (max {worst:.1%})")
-        blowup.check_overlap(sim, worst, fields.where)
-        if sim.timestep_every and sim.step % sim.timestep_every == 0:
-            guards.recheck_timestep(sim, fields.where, timestep_warned)
-        modifiers.change_particles(sim)
-        sim.output.write(sim, start=False)
-    total = time.perf_counter() - start_wall
-    cpu = time.process_time() - start_cpu
+    sim.output.write(sim, start=False)
+
+
+def _report(sim, steps: int, threads: int, progress: _Progress, total: float, cpu: float):
+    """The run's timing into sim.timing and its summary line into the log."""
+    timers, particle_steps = progress.timers, progress.particle_steps
     t = sim.timing
     t["neigh"] += timers[0]
     t["pair"] += timers[1]
@@ -232,7 +244,35 @@ def run(sim, fields: Fields):
     rate = particle_steps / total if total > 0 else 0.0
     sim.log.info(f"Loop time of {total:.6g} s for {steps} steps with {sim.n} particles "
                  f"({rate:.4g} particle-steps/s); pair {timers[1]:.4g} s, neigh {timers[0]:.4g} s "
-                 f"({rebuilds} rebuilds), modify {timers[2]:.4g} s; max overlap {max_overlap:.2%} of radius; "
-                 f"particles lost so far {sim.lost_total}; cpu {cpu:.6g} s "
+                 f"({progress.rebuilds} rebuilds), modify {timers[2]:.4g} s; max overlap "
+                 f"{progress.max_overlap:.2%} of radius; particles lost so far {sim.lost_total}; cpu {cpu:.6g} s "
                  f"({particle_steps / cpu if cpu > 0 else 0.0:.4g} particle-steps per cpu second); "
                  f"threads {threads} ({thread_pool.layer()})")
+
+
+def run(sim, fields: Fields):
+    """The `run` command: `steps` time steps."""
+    steps = fields.integer("steps", required=True, minimum=0)
+    check_ready(sim, fields)
+    # the thread count of the whole run, from the particles at its start: one thread compiles serial loops
+    # (quicker to compile, no thread wake-ups); the bytes are the same either way
+    threads = thread_pool.use(sim.n, sim.threads)
+    started_with = sim.n
+    created = sim.dirty
+    kernel, n_large, worst = _prepare(sim, fields, threads)
+    sim.dirty = False
+    if created:
+        _warn_start_overlaps(sim, n_large, worst)
+    start_wall = time.perf_counter()
+    start_cpu = time.process_time()  # CPU seconds too: on a shared machine wall time overstates the cost
+    start_step, start_time = sim.step, sim.time
+    progress = _Progress(worst)
+    sim.output.where = fields.where
+    # insert and outlet modifiers act before the output of their step (the thermo row counts what they did)
+    modifiers.change_particles(sim)
+    sim.output.write(sim, start=True)
+    end = start_step + steps
+    sim.output.end_step = end
+    while sim.step < end:
+        _chunk(sim, fields, kernel, progress, next_stop(sim, end), started_with, start_step, start_time)
+    _report(sim, steps, threads, progress, time.perf_counter() - start_wall, time.process_time() - start_cpu)

@@ -20,6 +20,8 @@ import simpleeval
 from .errors import InputError
 
 COMMANDS = ("create", "get", "set", "fix", "unfix", "run")
+#: axis names of scripts (walls, quantities) -> index
+AXES = {"x": 0, "y": 1, "z": 2}
 #: largest integer field (step counts, intervals, seeds): the step loop counts in int64, and 2**53 keeps every
 #: step exactly representable as the double a thermo file prints
 MAX_INTEGER = 2 ** 53

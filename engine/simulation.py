@@ -38,7 +38,7 @@ class Simulation:
         self.materials: dict[int, tuple] = {}  # type -> (Young's modulus Pa, Poisson ratio, density kg/m^3)
         self.interactions: dict[tuple, dict] = {}  # (type a <= type b) -> restitution, friction, ...
         self.model: dict | None = None  # the contact model's submodels and options
-        self.walls: list[dict] = []  # planes, then cylinders, then meshes (engine/walls.py)
+        self.walls: list[dict] = []  # in the order of engine.walls.SHAPES: planes, cylinders, meshes
         self.regions: dict[str, dict] = {}  # name -> region (engine.regions), from create region
         self.plane_point = np.zeros((0, 3))  # m, a point of each plane; moves with the plane's velocity
         self.mesh_triangles: dict[str, np.ndarray] = {}  # mesh wall name -> placed triangles (m, 3, 3), m

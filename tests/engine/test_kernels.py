@@ -73,4 +73,54 @@ def test_the_generated_loops_are_parallel_and_thread_safe_by_construction():
     assert "parallel=PARALLEL" not in serial and "f[j, 0] -= fx" in serial and "reaction[q" not in serial
     assert "f[j" not in source and "torque[j" not in source
     assert "reaction[q, 3] = crj * tqx" in source and "reaction[q, 6] = rtx" in source
-    assert kernels.Constants._fields == ("dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin")
+    assert kernels.Constants._fields == ("dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin",
+                                        "history_transfer")
+
+
+def test_a_new_kind_of_submodel_is_one_row_plus_its_law(tmp_path):
+    """A twisting submodel (a torque about the normal, its partner turned the other way, one double of history
+    that keeps its sign when i and j swap) added as one Submodel row and one Law row: the contact model command,
+    the Combination, the history and reaction columns and the generated code follow."""
+    import subprocess
+    import sys
+    import textwrap
+
+    from conftest import REPO
+
+    script = textwrap.dedent('''
+        from engine import models, contact_laws as cl
+        models.SUBMODELS["twisting"] = models.Submodel(
+            "twisting", coefficients=(models.Coefficient("twisting_friction"),),
+            applies="${needs}\\n${law}\\ntix -= mtx\\ntiy -= mty\\ntiz -= mtz\\n${partner}\\n",
+            partner={True: "reaction[q, ${o}] = mtx\\nreaction[q, ${o1}] = mty\\nreaction[q, ${o2}] = mtz\\n",
+                     False: "torque[j, 0] += mtx\\ntorque[j, 1] += mty\\ntorque[j, 2] += mtz\\n"})
+        models.PARAMETERS["twisting_friction"] = models.Parameter(
+            "-", "twisting friction", lambda a, b, inter: inter["twisting_friction"])
+        models.LAWS[("twisting", "test")] = models.Law(
+            "twisting", "test", (cl.rolling_cdt,), parameters=("twisting_friction",), history=1, transfer=1.0,
+            needs=("relative_spin",),
+            pair="mtx, mty, mtz = rolling_cdt(wrelx, wrely, wrelz, enx, eny, enz, {twisting_friction}, {h0}, reff)")
+        from engine import commands, kernels, simulation
+        from engine.script import Fields
+        c = kernels.Combination(normal="hertz", tangential="history", twisting="test", parallel=True,
+                                    planes=True)
+        assert c.history_offsets() == {"tangential": 0, "twisting": 3}, c.history_offsets()
+        assert c.history_transfer() == (-1.0, -1.0, -1.0, 1.0)
+        assert c.reaction_columns() == {"force": 0, "tangential": 3, "twisting": 6}
+        source = kernels.generate_source(c)
+        assert "reaction[q, 6] = mtx" in source and source.count("rolling_cdt(wrelx") == 2  # pair and walls
+        assert "pp[ti, tj, 4], pair_hist[k, 3], reff)" in source and "pp[ti, tj, 4], wall_hist[i, w, 3], reff)" in source
+        compile(source, "kernel", "exec")
+        sim = simulation.Simulation.__new__(simulation.Simulation)
+        sim.materials = {1: (1e7, 0.3, 2500.0)}
+        sim.interactions = {}
+        commands.create_interaction(sim, Fields({"types": [1, 1], "restitution": 0.5, "twisting_friction": 0.2},
+                                                "test"))
+        assert sim.interactions[(1, 1)]["twisting_friction"] == 0.2
+        commands.create_contact_model(sim, Fields({"normal": "hertz", "twisting": "test"}, "test"))
+        assert sim.model["twisting"] == "test" and sim.model["rolling"] == "none"
+        print("ok")
+    ''')
+    out = subprocess.run([sys.executable, "-c", script], cwd=REPO, env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin"},
+                         capture_output=True, text=True)
+    assert out.stdout.strip() == "ok", out.stderr

@@ -116,7 +116,7 @@ def test_neighbor_list_matches_brute_force_after_reordering_and_loss(periodic):
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
         s = random_state(np.random.default_rng(5), n, lo, hi, outside=0 if periodic[2] else 7)
         lost = lost_record(n)
-        kept, nbr = rebuild(s, n, empty_list(3), lo, hi, periodic, skin, 1, lost)
+        kept, nbr = rebuild(s, n, empty_list(3), lo, hi, periodic, skin, 1, lost, -np.ones(3))
         s = particle_state.trimmed(s, kept)
         expected_lost = 0 if periodic[2] else 7
         assert kept == n - expected_lost and lost.count[0] == expected_lost
@@ -132,20 +132,23 @@ def test_neighbor_list_matches_brute_force_after_reordering_and_loss(periodic):
             ks = pair_of_row[nbr.rstart[p]:nbr.rstart[p + 1]]
             assert np.all(nbr.j[ks] == p) and np.all(np.diff(ks) > 0)
         assert nbr.rstart[-1] == len(nbr.j) and np.array_equal(np.sort(nbr.rslot), np.arange(len(nbr.j)))
-        # history antisymmetric in (i, j): id_i - id_j; after moving the particles and rebuilding, each pair
-        # still holds it for its (possibly swapped) owner
+        # history column 0 antisymmetric in (i, j): id_i - id_j (transfer factor -1), column 1 symmetric:
+        # id_i + id_j (transfer factor +1); after moving the particles and rebuilding, each pair still holds them
+        # for its (possibly swapped) owner
         old_pairs = listed_pairs(s, nbr, kept)
         owner = np.repeat(np.arange(kept), np.diff(nbr.start))
         nbr.hist[:, 0] = s.pid[owner] - s.pid[nbr.j]
+        nbr.hist[:, 1] = s.pid[owner] + s.pid[nbr.j]
         s.x[:kept] += 0.004 * np.random.default_rng(9).standard_normal((kept, 3))
-        kept2, nbr2 = rebuild(s, kept, nbr, lo, hi, periodic, skin, 2, lost_record(kept))
+        kept2, nbr2 = rebuild(s, kept, nbr, lo, hi, periodic, skin, 2, lost_record(kept), np.array([-1.0, 1.0, -1.0]))
         s = particle_state.trimmed(s, kept2)
         assert listed_pairs(s, nbr2, kept2) == brute_force_pairs(s.x, s.radius, s.pid, lo, hi, periodic, skin)
         owner2 = np.repeat(np.arange(kept2), np.diff(nbr2.start))
         for k in range(len(nbr2.j)):
             a, b = s.pid[owner2[k]], s.pid[nbr2.j[k]]
-            expected = a - b if (min(a, b), max(a, b)) in old_pairs else 0.0
-            assert nbr2.hist[k, 0] == expected
+            listed = (min(a, b), max(a, b)) in old_pairs
+            assert nbr2.hist[k, 0] == (a - b if listed else 0.0)
+            assert nbr2.hist[k, 1] == (a + b if listed else 0.0)
         results.append((s.pid.copy(), s.x.copy(), nbr2.start.copy(), nbr2.j.copy(), nbr2.hist.copy()))
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     for a, b in zip(*results):

@@ -1,4 +1,4 @@
-"""Walls of any shape (engine/walls.py, engine/mesh.py): planes with any normal, bounded planes, cylinders along
+"""Walls of any shape (engine/walls/, engine/mesh.py): planes with any normal, bounded planes, cylinders along
 any axis with a turning surface, STL meshes that stand, translate or rotate.
 
 Each check is against an analytic result or an independently computed value: the closest point of a triangle
