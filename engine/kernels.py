@@ -26,6 +26,7 @@ import sys
 from collections import namedtuple
 from dataclasses import dataclass
 
+from . import clumps
 from .jit import cache_dir
 from .models import LAWS, PARAMETERS, SUBMODELS, choices
 from .state import FIELD_NAMES
@@ -62,6 +63,7 @@ class Combination:
     mesh_rotation: bool = False
     gravity: bool = False
     periodic: tuple = (False, False, False)
+    clumps: bool = False
     parallel: bool = False
 
     def law(self, submodel: str):
@@ -239,9 +241,10 @@ RESET_HISTORY = "for h in range(${width}):\n    ${target} = 0.0\n"
 #: j directly, in the same order (the former serial loop).
 PAIR_FORCES = '''\
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def pair_forces(s, n, nbr, pp, dt, char_vel, box):
+def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
     """Contact forces of the listed pairs (half list: each pair once, by i < j)."""
     ${unpack}
+    ${same_body_head}
     nbr_start = nbr.start
     nbr_j = nbr.j
     pair_hist = nbr.hist
@@ -249,6 +252,7 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box):
     reaction = nbr.reaction
     for i in prange(n):
         ${particle_head}
+        ${body_i}
         for k in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_j[k]
             dx = xi0 - x[j, 0]
@@ -259,6 +263,7 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box):
             rj = radius[j]
             radsum = ri + rj
             ${row}
+            ${same_body}
             if rsq >= radsum * radsum:
                 ${reset_history}
                 ${zero_row}
@@ -626,7 +631,7 @@ if record:
 
 STEP_LOOP = '''\
 @njit(cache=True, error_model="numpy")
-def setup(s, n, nbr, mnbr, walls, pp, c, step, lost):
+def setup(s, n, nbr, mnbr, walls, pp, c, step, lost${bodies}):
     """Fresh neighbor lists and forces for the current state (start of a run after the scene changed).
     Returns (particles kept, neighbor list, mesh contact list)."""
     ${constants}
@@ -635,18 +640,19 @@ def setup(s, n, nbr, mnbr, walls, pp, c, step, lost):
     ${mesh_rebuild}
     ${plane_reach_start}
     ${clear_forces}
-    pair_forces(s, n, nbr, pp, dt, char_vel, box)
+    pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies})
     record = True
     wall_part = np.zeros((n, ${nwalls}, 3))
     wall_tpart = np.zeros((n, ${nwalls}, 3))
     particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, False, False, record, wall_part, wall_tpart,
                   0.0, plane_near)
+    ${body_setup}
     ${wall_force_sum}
     return n, nbr, mnbr
 
 
 @njit(cache=True, error_model="numpy")
-def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost):
+def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost${bodies}):
     """nsteps Velocity-Verlet steps (fix nve/sphere order) of the first n particles of state s. Returns
     (status, bad particle, steps done, rebuilds, particles kept, neighbor list, mesh contact list); status 1 =
     non-finite position. timers += [neigh, pair, modify] in s."""
@@ -662,6 +668,7 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost):
     t0 = now()
     ${plane_reach_start}
     need, first_bad = drift_pass(s, n, dt, half_skin_sq, gravity)
+    ${body_start}
     neigh = 0.0
     pair = 0.0
     modify = now() - t0
@@ -681,13 +688,14 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost):
             ${plane_reach}
             rebuilds += 1
         t2 = now()
-        pair_forces(s, n, nbr, pp, dt, char_vel, box)
+        pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies})
         t3 = now()
         record = k_step == nsteps - 1
         wall_part = np.zeros((n if record else 0, ${nwalls}, 3))
         wall_tpart = np.zeros((n if record else 0, ${nwalls}, 3))
         need, first_bad = particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, True, not record, record,
                                         wall_part, wall_tpart, half_skin_sq, plane_near)
+        ${body_step}
         ${wall_force_sum}
         t4 = now()
         neigh += t2 - t1
@@ -836,10 +844,18 @@ def generate_source(c: Combination) -> str:
                        for a, name in enumerate("xyz") if c.periodic[a])
     unpack = _unpack("s", FIELD_NAMES)
     rows = c.parallel  # several threads: pair rows for the partner, gathered in the particle pass
+    zero_row = f"for h in range({c.reaction_width}):\n    reaction[q, h] = 0.0" if rows else ""
+    # clumps (engine/clumps.py): two members of one body do not touch; the bodies' pass follows the particles'
+    body_slots = dict(bodies=", bodies", body_setup=clumps.BODY_SETUP, body_start=clumps.BODY_START,
+                      body_step=clumps.BODY_STEP) if c.clumps else dict(bodies="", body_setup="", body_start="",
+                                                                         body_step="")
     pair_forces = render(PAIR_FORCES, unpack=unpack, particle_head=PARTICLE_HEAD, periodic_image=periodic,
                          row="q = rslot[k]" if rows else "", reset_history=_reset_history(c, "pair"),
-                         zero_row=f"for h in range({c.reaction_width}):\n    reaction[q, h] = 0.0" if rows else "",
-                         contact=contact_code(c, "pair"), own_sum=OWN_SUM[rows])
+                         zero_row=zero_row, contact=contact_code(c, "pair"), own_sum=OWN_SUM[rows],
+                         bodies=body_slots["bodies"],
+                         same_body_head=clumps.SAME_BODY_HEAD if c.clumps else "",
+                         body_i="body_i = member_body[pid[i]]" if c.clumps else "",
+                         same_body=render(clumps.SAME_BODY, zero_row=zero_row) if c.clumps else "")
     has_walls = c.planes or c.cylinders or c.meshes
     walls = unpack_walls = ""
     if has_walls:
@@ -873,8 +889,9 @@ def generate_source(c: Combination) -> str:
     else:
         clear_forces = render(CLEAR_FORCES, clear="".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)))
         clear_call = "clear_forces(s, n, gravity)"
-    drift = render(DRIFT, clear="" if rows else "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force))
-                   + "torque[i, 0] = 0.0\ntorque[i, 1] = 0.0\ntorque[i, 2] = 0.0\n")
+    clear = "" if rows else ("".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force))
+                             + "torque[i, 0] = 0.0\ntorque[i, 1] = 0.0\ntorque[i, 2] = 0.0\n")
+    drift = render(DRIFT, clear=clumps.member_clear(clear) if c.clumps else clear)
     particle_pass = render(PARTICLE_PASS, unpack=unpack, unpack_walls=unpack_walls, gather=gather, walls=walls,
                            drift=drift)
     move_walls = (MOVE_PLANES if c.planes else "") + (
@@ -887,7 +904,8 @@ def generate_source(c: Combination) -> str:
                        nwalls="walls.force.shape[0]" if has_walls else "0", clear_forces=clear_call,
                        wall_force_sum=WALL_FORCE_SUM if has_walls else "",
                        plane_reach=PLANE_REACH_CALL if c.planes else "",
-                       plane_reach_start=PLANE_REACH_CALL if c.planes else "plane_near = np.empty(0, dtype=np.int64)")
+                       plane_reach_start=PLANE_REACH_CALL if c.planes else "plane_near = np.empty(0, dtype=np.int64)",
+                       **body_slots)
     called = sorted({fn for law in c.laws() for fn in law.functions}, key=lambda fn: fn.__name__)
     body = pair_forces + particle_pass + step_loop
     if "slip_velocity(" in body:
@@ -897,6 +915,8 @@ def generate_source(c: Combination) -> str:
         from . import mesh
         called += [mesh.closest_point, mesh.edge_or_corner_counts, mesh.mesh_rebuild, mesh.place_vertices,
                    mesh.shift_vertices, mesh.take_coplanar_history]
+    if c.clumps:
+        called.append(clumps.body_pass)
     imports = "".join(f"from {fn.__module__} import {fn.__name__}\n" for fn in called if fn.__name__ + "(" in body)
     source = render(MODULE, combination=repr(c), imports=imports, pair_forces=pair_forces,
                     particle_pass=particle_pass, clear_forces=clear_forces, step_loop=step_loop,

@@ -34,7 +34,8 @@ def combination(sim, parallel: bool = False) -> Combination:
                        tangential_damping=m["tangential_damping"],
                        **wall_features(sim.walls),
                        gravity=any(mod.acceleration() is not None for mod in sim.active_modifiers()),
-                       periodic=tuple(bool(p) for p in sim.periodic))
+                       periodic=tuple(bool(p) for p in sim.periodic),
+                       clumps=sim.bodies is not None)
 
 
 def steps_of(fields: Fields) -> int:
@@ -146,16 +147,17 @@ def run(sim, fields: Fields):
                           gravity=sim.gravity_vector(), lo=sim.lo, hi=sim.hi, periodic=sim.periodic, skin=sim.skin)
     started_with = sim.n
     created = sim.dirty
+    bodies = (sim.bodies,) if combo.clumps else ()  # the kernels of clump scenes take the bodies (engine/clumps.py)
     if sim.dirty:
         lost = lost_record(sim.n)
         n, sim.nbr, sim.mesh_nbr = kernel.setup(sim.state, sim.n, sim.nbr, sim.mesh_nbr, walls, pp, constants,
-                                                sim.step, lost)
+                                                sim.step, lost, *bodies)
         sim.state = particle_state.trimmed(sim.state, n)
         guards.report_lost(sim, lost, fields.where, started_with)
         sim.dirty = False
     # a zero-step call compiles run_steps (or loads it from the disk cache) outside the timed loop
     kernel.run_steps(sim.state, sim.n, sim.nbr, sim.mesh_nbr, walls, pp, constants, sim.step, 0, np.zeros(3),
-                     lost_record(0))
+                     lost_record(0), *bodies)
     if combo.meshes:
         # the mesh contact list of the particles and mesh placement now (walls or particles may have changed
         # since the last run; the list only says which triangles are near, so building it anew changes no force)
@@ -195,7 +197,8 @@ def run(sim, fields: Fields):
         n = sim.n
         lost = lost_record(n)
         status, bad, done, rebuilt, kept, sim.nbr, sim.mesh_nbr = kernel.run_steps(
-            sim.state, n, sim.nbr, sim.mesh_nbr, walls, pp, constants, sim.step, stop - sim.step, timers, lost)
+            sim.state, n, sim.nbr, sim.mesh_nbr, walls, pp, constants, sim.step, stop - sim.step, timers, lost,
+            *((sim.bodies,) if combo.clumps else ()))  # inserting clumps mid-run replaces the bodies' arrays
         sim.state = particle_state.trimmed(sim.state, kept)
         particle_steps += done * n
         rebuilds += rebuilt
