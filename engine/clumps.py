@@ -32,11 +32,12 @@ from .jit import njit
 
 #: per body (rows) and per particle id (member_body, member_offset); passed whole to compiled code
 Bodies = namedtuple("Bodies", ["x", "v", "q", "angmom", "omega", "inertia", "mass", "force", "torque", "members",
-                               "bid", "member_body", "member_offset"])
+                               "bid", "rot", "member_body", "member_offset"])
 Bodies.__doc__ = ("Rigid bodies: centre of mass x (m), velocity v (m/s), orientation quaternion q (w, x, y, z; "
                   "body frame -> space), angular momentum (kg m^2/s, space frame), angular velocity omega "
                   "(rad/s, space frame), principal moments inertia (kg m^2), mass (kg), force (N) and torque "
-                  "(N m) of the last force evaluation, members present, body id (from 1); per particle id the "
+                  "(N m) of the last force evaluation, members present, body id (from 1), work space for the rotation "
+                  "matrices; per particle id the "
                   "body index (-1: a free sphere) and the member's centre in the body frame (m).")
 
 #: quasi-random points for the mass properties of a template whose spheres overlap
@@ -46,7 +47,8 @@ DEFAULT_SAMPLES = 2 ** 20
 def empty_bodies(ids: int = 1) -> Bodies:
     return Bodies(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 4)), np.zeros((0, 3)), np.zeros((0, 3)),
                   np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, dtype=np.int64),
-                  np.zeros(0, dtype=np.int64), np.full(ids, -1, dtype=np.int64), np.zeros((ids, 3)))
+                  np.zeros(0, dtype=np.int64), np.zeros((0, 3, 3)), np.full(ids, -1, dtype=np.int64),
+                  np.zeros((ids, 3)))
 
 
 # ---------------------------------------------------------------- mass properties
@@ -212,19 +214,26 @@ def _rotation(q0, q1, q2, q3, rot):
 def angular_velocity(q, angmom, inertia, w):
     """w = R diag(1/I) R^T L (rad/s, space frame) of orientation q, angular momentum L (space frame) and
     principal moments I."""
-    rot = np.empty((3, 3))
-    _rotation(q[0], q[1], q[2], q[3], rot)
-    for a in range(3):
-        lb = rot[0, a] * angmom[0] + rot[1, a] * angmom[1] + rot[2, a] * angmom[2]  # body frame
-        wb = lb / inertia[a]
-        if a == 0:
-            w[0] = rot[0, 0] * wb
-            w[1] = rot[1, 0] * wb
-            w[2] = rot[2, 0] * wb
-        else:
-            w[0] += rot[0, a] * wb
-            w[1] += rot[1, a] * wb
-            w[2] += rot[2, a] * wb
+    q0 = q[0]
+    q1 = q[1]
+    q2 = q[2]
+    q3 = q[3]
+    # columns of R: the body axes in space
+    ax0 = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
+    ax1 = 2.0 * (q1 * q2 + q0 * q3)
+    ax2 = 2.0 * (q1 * q3 - q0 * q2)
+    ay0 = 2.0 * (q1 * q2 - q0 * q3)
+    ay1 = 1.0 - 2.0 * (q1 * q1 + q3 * q3)
+    ay2 = 2.0 * (q2 * q3 + q0 * q1)
+    az0 = 2.0 * (q1 * q3 + q0 * q2)
+    az1 = 2.0 * (q2 * q3 - q0 * q1)
+    az2 = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
+    wb0 = (ax0 * angmom[0] + ax1 * angmom[1] + ax2 * angmom[2]) / inertia[0]  # body frame
+    wb1 = (ay0 * angmom[0] + ay1 * angmom[1] + ay2 * angmom[2]) / inertia[1]
+    wb2 = (az0 * angmom[0] + az1 * angmom[1] + az2 * angmom[2]) / inertia[2]
+    w[0] = ax0 * wb0 + ay0 * wb1 + az0 * wb2
+    w[1] = ax1 * wb0 + ay1 * wb1 + az1 * wb2
+    w[2] = ax2 * wb0 + ay2 * wb1 + az2 * wb2
 
 
 @njit(cache=True, error_model="numpy")
@@ -244,7 +253,7 @@ def _quaternion_step(q, w, h, out):
 
 
 @njit(cache=True, error_model="numpy")
-def rotate(q, angmom, inertia, dt):
+def rotate(q, angmom, inertia, dt, scratch):
     """q advanced by one time step dt with the angular momentum L of the half step (in place).
 
     Richardson extrapolation of the first-order update of dq/dt = 1/2 (0, w) q, w = R(q) I^-1 R(q)^T L:
@@ -252,16 +261,16 @@ def rotate(q, angmom, inertia, dt):
     normalised: second order in dt. The scheme of LAMMPS' fix rigid and LIGGGHTS' fix multisphere
     (Kamberaj, Low and Neal, J. Chem. Phys. 122 (2005) 224114, for the splitting of translation and rotation;
     the Richardson step as in LAMMPS' MathExtra::richardson). Angular momentum is kept in the space frame, so
-    that without torque it is conserved exactly.
+    that without torque it is conserved exactly. scratch: (4, 4) doubles of work space.
     """
-    w = np.empty(3)
+    w = scratch[0]
+    full = scratch[1]
+    half = scratch[2]
+    second = scratch[3]
     angular_velocity(q, angmom, inertia, w)
-    full = np.empty(4)
     _quaternion_step(q, w, dt, full)
-    half = np.empty(4)
     _quaternion_step(q, w, 0.5 * dt, half)
     angular_velocity(half, angmom, inertia, w)
-    second = np.empty(4)
     _quaternion_step(half, w, 0.5 * dt, second)
     norm = 0.0
     for a in range(4):
@@ -324,7 +333,8 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq):
             if b.members[k] > 0:
                 for a in range(3):
                     b.force[k, a] += b.mass[k] * gravity[a]
-    rot = np.empty((nb, 3, 3))
+    rot = b.rot
+    scratch = np.empty((4, 4))
     for k in range(nb):
         if b.members[k] == 0:
             continue
@@ -338,7 +348,7 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq):
                 b.v[k, a] += half_dt * b.force[k, a] * inv_m
                 b.angmom[k, a] += half_dt * b.torque[k, a]
                 b.x[k, a] += dt * b.v[k, a]
-            rotate(b.q[k], b.angmom[k], b.inertia[k], dt)
+            rotate(b.q[k], b.angmom[k], b.inertia[k], dt, scratch)
         angular_velocity(b.q[k], b.angmom[k], b.inertia[k], b.omega[k])
         _rotation(b.q[k, 0], b.q[k, 1], b.q[k, 2], b.q[k, 3], rot[k])
     need = 0
@@ -347,19 +357,26 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq):
         k = member_body[pid[i]]
         if k < 0:
             continue
-        r = np.empty(3)
-        for a in range(3):
-            r[a] = (rot[k, a, 0] * member_offset[pid[i], 0] + rot[k, a, 1] * member_offset[pid[i], 1]
-                    + rot[k, a, 2] * member_offset[pid[i], 2])
-        w = b.omega[k]
-        v[i, 0] = b.v[k, 0] + w[1] * r[2] - w[2] * r[1]
-        v[i, 1] = b.v[k, 1] + w[2] * r[0] - w[0] * r[2]
-        v[i, 2] = b.v[k, 2] + w[0] * r[1] - w[1] * r[0]
-        for a in range(3):
-            omega[i, a] = w[a]
+        p = pid[i]
+        o0 = member_offset[p, 0]
+        o1 = member_offset[p, 1]
+        o2 = member_offset[p, 2]
+        r0 = rot[k, 0, 0] * o0 + rot[k, 0, 1] * o1 + rot[k, 0, 2] * o2
+        r1 = rot[k, 1, 0] * o0 + rot[k, 1, 1] * o1 + rot[k, 1, 2] * o2
+        r2 = rot[k, 2, 0] * o0 + rot[k, 2, 1] * o1 + rot[k, 2, 2] * o2
+        w0 = b.omega[k, 0]
+        w1 = b.omega[k, 1]
+        w2 = b.omega[k, 2]
+        v[i, 0] = b.v[k, 0] + w1 * r2 - w2 * r1
+        v[i, 1] = b.v[k, 1] + w2 * r0 - w0 * r2
+        v[i, 2] = b.v[k, 2] + w0 * r1 - w1 * r0
+        omega[i, 0] = w0
+        omega[i, 1] = w1
+        omega[i, 2] = w2
         if drift:
-            for a in range(3):
-                x[i, a] = b.x[k, a] + r[a]
+            x[i, 0] = b.x[k, 0] + r0
+            x[i, 1] = b.x[k, 1] + r1
+            x[i, 2] = b.x[k, 2] + r2
             dx = x[i, 0] - x_build[i, 0]
             dy = x[i, 1] - x_build[i, 1]
             dz = x[i, 2] - x_build[i, 2]
@@ -473,7 +490,8 @@ def add_bodies(sim, template: Template, positions, quaternions, velocity, omega,
         force=np.concatenate([b.force, mass[:, None] * gravity[None, :]]),
         torque=np.concatenate([b.torque, np.zeros((k, 3))]),
         members=np.concatenate([b.members, np.full(k, members, dtype=np.int64)]),
-        bid=np.concatenate([b.bid, np.arange(first_body + 1, first_body + k + 1, dtype=np.int64)]))
+        bid=np.concatenate([b.bid, np.arange(first_body + 1, first_body + k + 1, dtype=np.int64)]),
+        rot=np.zeros((first_body + k, 3, 3)))
     pid = np.arange(sim.next_id, sim.next_id + total, dtype=np.int64)
     ensure_ids(sim, sim.next_id + total)
     sim.bodies.member_body[pid] = np.repeat(np.arange(first_body, first_body + k), members)
@@ -605,7 +623,7 @@ def overlaps(sim, ratio_limit: float):
 # ---------------------------------------------------------------- restart files
 
 #: restart arrays of the bodies: file key -> Bodies field
-RESTART_ARRAYS = {f"clump_{name}": name for name in Bodies._fields}
+RESTART_ARRAYS = {f"clump_{name}": name for name in Bodies._fields if name != "rot"}
 
 
 def restart_arrays(sim) -> dict:
@@ -638,7 +656,7 @@ def restore(sim, data: dict):
     arrays["members"] = arrays["members"].astype(np.int64)
     arrays["bid"] = arrays["bid"].astype(np.int64)
     arrays["member_body"] = arrays["member_body"].astype(np.int64)
-    sim.bodies = Bodies(**arrays)
+    sim.bodies = Bodies(rot=np.zeros((nb, 3, 3)), **arrays)
 
 
 def templates_json(sim) -> str:
