@@ -522,6 +522,15 @@ def whole_bodies(sim, mask: np.ndarray) -> np.ndarray:
     return mask | hit[body + 1]
 
 
+def recount(sim):
+    """Members present per body, after particles were removed between two steps (the body pass counts them
+    at every force evaluation)."""
+    if sim.bodies is None:
+        return
+    body = sim.bodies.member_body[sim.state.pid]
+    sim.bodies.members[:] = np.bincount(body[body >= 0], minlength=len(sim.bodies.mass))
+
+
 # ---------------------------------------------------------------- quantities
 
 
