@@ -3,7 +3,7 @@
 
 LIGGGHTS inserts the body at step 1 (its step-0 row has no particle), so the rows both codes have are those
 from the first thermo step on. Energies: the engine's thermo ke and rke are its bodies' (engine/clumps.py);
-LIGGGHTS' are compute ke/multisphere (c_kems) and erotate/multisphere (c_rke).
+LIGGGHTS' are compute ke/multisphere (column kems: the adapter drops the c_) and erotate/multisphere (rke).
 """
 import csv
 from pathlib import Path
@@ -13,7 +13,7 @@ from harness.adapters import get_adapter
 here = Path(".")
 code = "liggghts" if (here / "log.liggghts").is_file() else "dem"
 thermo = get_adapter(code).read_thermo(here)
-ke = thermo["c_kems"] if code == "liggghts" else thermo["ke"]
+ke = thermo["kems"] if code == "liggghts" else thermo["ke"]
 rke = thermo["rke"]
 Path("post").mkdir(exist_ok=True)
 with open("post/bounce.csv", "w", newline="") as handle:
