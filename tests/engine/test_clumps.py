@@ -287,3 +287,17 @@ def test_clump_of_an_unknown_template_is_bad_input(engine_run):
     code, folder = engine_run([domain(), material(), clump("none", [0, 0, 0])])
     assert code == 2
     assert "field 'template' names no clump template 'none'" in (folder / "log.dem").read_text()
+
+
+@pytest.mark.slow
+def test_clump_pile_is_bitwise_the_same_on_one_and_two_threads(tmp_path):
+    """The body pass is serial and the pair loop's skip writes the pair's row: thermo bytes equal."""
+    from conftest import engine_program
+
+    scene = _pile(count=40, steps=3000)
+    rows = []
+    for threads in ("1", "2"):
+        done = engine_program(tmp_path / threads, scene, "-threads", threads)
+        assert done.returncode == 0, done.stdout[-2000:]
+        rows.append((tmp_path / threads / "series.csv").read_bytes())
+    assert rows[0] == rows[1]
