@@ -214,11 +214,13 @@ def _rotation(q0, q1, q2, q3, rot):
 def angular_velocity(q, angmom, inertia, w):
     """w = R diag(1/I) R^T L (rad/s, space frame) of orientation q, angular momentum L (space frame) and
     principal moments I."""
-    q0 = q[0]
-    q1 = q[1]
-    q2 = q[2]
-    q3 = q[3]
-    # columns of R: the body axes in space
+    w[0], w[1], w[2] = _omega(q[0], q[1], q[2], q[3], angmom[0], angmom[1], angmom[2], inertia[0], inertia[1],
+                              inertia[2])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _omega(q0, q1, q2, q3, l0, l1, l2, i0, i1, i2):
+    """w = R diag(1/I) R^T L (space frame) for the quaternion (q0, q1, q2, q3): scalars in, scalars out."""
     ax0 = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
     ax1 = 2.0 * (q1 * q2 + q0 * q3)
     ax2 = 2.0 * (q1 * q3 - q0 * q2)
@@ -228,32 +230,26 @@ def angular_velocity(q, angmom, inertia, w):
     az0 = 2.0 * (q1 * q3 + q0 * q2)
     az1 = 2.0 * (q2 * q3 - q0 * q1)
     az2 = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
-    wb0 = (ax0 * angmom[0] + ax1 * angmom[1] + ax2 * angmom[2]) / inertia[0]  # body frame
-    wb1 = (ay0 * angmom[0] + ay1 * angmom[1] + ay2 * angmom[2]) / inertia[1]
-    wb2 = (az0 * angmom[0] + az1 * angmom[1] + az2 * angmom[2]) / inertia[2]
-    w[0] = ax0 * wb0 + ay0 * wb1 + az0 * wb2
-    w[1] = ax1 * wb0 + ay1 * wb1 + az1 * wb2
-    w[2] = ax2 * wb0 + ay2 * wb1 + az2 * wb2
+    wb0 = (ax0 * l0 + ax1 * l1 + ax2 * l2) / i0
+    wb1 = (ay0 * l0 + ay1 * l1 + ay2 * l2) / i1
+    wb2 = (az0 * l0 + az1 * l1 + az2 * l2) / i2
+    return (ax0 * wb0 + ay0 * wb1 + az0 * wb2, ax1 * wb0 + ay1 * wb1 + az1 * wb2,
+            ax2 * wb0 + ay2 * wb1 + az2 * wb2)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _quaternion_step(q0, q1, q2, q3, w0, w1, w2, h):
+    """Normalised q + h dq/dt with dq/dt = 1/2 (0, w) q (w in the space frame)."""
+    n0 = q0 - h * 0.5 * (w0 * q1 + w1 * q2 + w2 * q3)
+    n1 = q1 + h * 0.5 * (w0 * q0 + w1 * q3 - w2 * q2)
+    n2 = q2 + h * 0.5 * (w1 * q0 + w2 * q1 - w0 * q3)
+    n3 = q3 + h * 0.5 * (w2 * q0 + w0 * q2 - w1 * q1)
+    norm = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)
+    return n0 / norm, n1 / norm, n2 / norm, n3 / norm
 
 
 @njit(cache=True, error_model="numpy")
-def _quaternion_step(q, w, h, out):
-    """out = normalised q + h dq/dt with dq/dt = 1/2 (0, w) q (w in the space frame)."""
-    d0 = -0.5 * (w[0] * q[1] + w[1] * q[2] + w[2] * q[3])
-    d1 = 0.5 * (w[0] * q[0] + w[1] * q[3] - w[2] * q[2])
-    d2 = 0.5 * (w[1] * q[0] + w[2] * q[1] - w[0] * q[3])
-    d3 = 0.5 * (w[2] * q[0] + w[0] * q[2] - w[1] * q[1])
-    out[0] = q[0] + h * d0
-    out[1] = q[1] + h * d1
-    out[2] = q[2] + h * d2
-    out[3] = q[3] + h * d3
-    norm = np.sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2] + out[3] * out[3])
-    for a in range(4):
-        out[a] /= norm
-
-
-@njit(cache=True, error_model="numpy")
-def rotate(q, angmom, inertia, dt, scratch):
+def rotate(q, angmom, inertia, dt):
     """q advanced by one time step dt with the angular momentum L of the half step (in place).
 
     Richardson extrapolation of the first-order update of dq/dt = 1/2 (0, w) q, w = R(q) I^-1 R(q)^T L:
@@ -261,24 +257,24 @@ def rotate(q, angmom, inertia, dt, scratch):
     normalised: second order in dt. The scheme of LAMMPS' fix rigid and LIGGGHTS' fix multisphere
     (Kamberaj, Low and Neal, J. Chem. Phys. 122 (2005) 224114, for the splitting of translation and rotation;
     the Richardson step as in LAMMPS' MathExtra::richardson). Angular momentum is kept in the space frame, so
-    that without torque it is conserved exactly. scratch: (4, 4) doubles of work space.
+    that without torque it is conserved exactly.
     """
-    w = scratch[0]
-    full = scratch[1]
-    half = scratch[2]
-    second = scratch[3]
-    angular_velocity(q, angmom, inertia, w)
-    _quaternion_step(q, w, dt, full)
-    _quaternion_step(q, w, 0.5 * dt, half)
-    angular_velocity(half, angmom, inertia, w)
-    _quaternion_step(half, w, 0.5 * dt, second)
-    norm = 0.0
-    for a in range(4):
-        q[a] = 2.0 * second[a] - full[a]
-        norm += q[a] * q[a]
-    norm = np.sqrt(norm)
-    for a in range(4):
-        q[a] /= norm
+    l0, l1, l2 = angmom[0], angmom[1], angmom[2]
+    i0, i1, i2 = inertia[0], inertia[1], inertia[2]
+    w0, w1, w2 = _omega(q[0], q[1], q[2], q[3], l0, l1, l2, i0, i1, i2)
+    f0, f1, f2, f3 = _quaternion_step(q[0], q[1], q[2], q[3], w0, w1, w2, dt)
+    h0, h1, h2, h3 = _quaternion_step(q[0], q[1], q[2], q[3], w0, w1, w2, 0.5 * dt)
+    w0, w1, w2 = _omega(h0, h1, h2, h3, l0, l1, l2, i0, i1, i2)
+    s0, s1, s2, s3 = _quaternion_step(h0, h1, h2, h3, w0, w1, w2, 0.5 * dt)
+    r0 = 2.0 * s0 - f0
+    r1 = 2.0 * s1 - f1
+    r2 = 2.0 * s2 - f2
+    r3 = 2.0 * s3 - f3
+    norm = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2 + r3 * r3)
+    q[0] = r0 / norm
+    q[1] = r1 / norm
+    q[2] = r2 / norm
+    q[3] = r3 / norm
 
 
 @njit(cache=True, error_model="numpy")
@@ -334,7 +330,6 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq):
                 for a in range(3):
                     b.force[k, a] += b.mass[k] * gravity[a]
     rot = b.rot
-    scratch = np.empty((4, 4))
     for k in range(nb):
         if b.members[k] == 0:
             continue
@@ -348,7 +343,7 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq):
                 b.v[k, a] += half_dt * b.force[k, a] * inv_m
                 b.angmom[k, a] += half_dt * b.torque[k, a]
                 b.x[k, a] += dt * b.v[k, a]
-            rotate(b.q[k], b.angmom[k], b.inertia[k], dt, scratch)
+            rotate(b.q[k], b.angmom[k], b.inertia[k], dt)
         angular_velocity(b.q[k], b.angmom[k], b.inertia[k], b.omega[k])
         _rotation(b.q[k, 0], b.q[k, 1], b.q[k, 2], b.q[k, 3], rot[k])
     need = 0
