@@ -638,8 +638,8 @@ def restart_arrays(sim) -> dict:
 
 def restore(sim, data: dict):
     """The bodies of a restart file (none when it holds none), checked against its particles."""
-    if "clump_mass" not in data:
-        sim.bodies = None
+    if "clump_mass" not in data:  # no clumps yet; an insert modifier of a template may still add some
+        sim.bodies = None if sim.bodies is None else empty_bodies(int(data["next_id"]))
         return
     arrays = {name: np.ascontiguousarray(data[key]) for key, name in RESTART_ARRAYS.items()}
     nb = len(arrays["mass"])
