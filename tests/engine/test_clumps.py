@@ -301,3 +301,32 @@ def test_clump_pile_is_bitwise_the_same_on_one_and_two_threads(tmp_path):
         assert done.returncode == 0, done.stdout[-2000:]
         rows.append((tmp_path / threads / "series.csv").read_bytes())
     assert rows[0] == rows[1]
+
+
+def test_outlet_removes_whole_clumps_and_mass_rate_inserts_clumps(engine_run):
+    """An outlet takes a clump as soon as one member's centre is in its region; an insert modifier in mass
+    mode counts clump masses."""
+    rod = [[-0.0015, 0, 0, 0.0015], [0, 0, 0, 0.0015], [0.0015, 0, 0, 0.0015]]
+    mass = clumps.mass_properties(np.array(rod)[:, :3], np.array(rod)[:, 3], RHO, 8192)["mass"]
+    commands = [domain((-0.02, -0.02, -0.05), (0.02, 0.02, 0.06)), material(), interaction(), model()]
+    commands += gravity() + [
+        template("rod", rod, samples=8192),
+        {"command": "create", "object": "modifier", "name": "feed", "kind": "insert", "template": "rod",
+         "every": 1000, "mass_rate": 2.5 * mass / (1000 * 1e-5), "total_mass": 10.5 * mass, "seed": 4,
+         "region": {"shape": "box", "lo": [-0.015, -0.015, 0.02], "hi": [0.015, 0.015, 0.05]}},
+        {"command": "fix", "name": "feed"},
+        {"command": "create", "object": "modifier", "name": "drain", "kind": "outlet", "every": 100,
+         "region": {"shape": "box", "lo": [-0.02, -0.02, -0.05], "hi": [0.02, 0.02, 0.0]}},
+        {"command": "fix", "name": "drain"}, timestep(1e-5)]
+    commands += printer(100, ["atoms", "inserted_count[feed]", "inserted_mass[feed]", "removed_count[drain]",
+                              "removed_mass[drain]", "mass[type=1]"]) + [run(12000)]
+    code, folder = engine_run(commands)
+    assert code == 0
+    s = read_csv(folder / "series.csv")
+    assert s["inserted_count[feed]"][-1] == 10  # 10 clumps fit under 10.5 clump masses
+    assert s["inserted_mass[feed]"][-1] == pytest.approx(10 * mass, rel=1e-12)
+    assert s["removed_count[drain]"][-1] > 0
+    assert np.all(s["atoms"] % 3 == 0) and np.all(s["removed_count[drain]"] % 3 == 0)
+    removed = s["removed_count[drain]"] / 3
+    assert s["removed_mass[drain]"] == pytest.approx(removed * mass, rel=1e-12)
+    assert s["mass[type=1]"] == pytest.approx(s["atoms"] / 3 * mass, rel=1e-12)
