@@ -40,7 +40,7 @@ Bodies.__doc__ = ("Rigid bodies: centre of mass x (m), velocity v (m/s), orienta
                   "matrices; per particle id the "
                   "body index (-1: a free sphere) and the member's centre in the body frame (m).")
 
-#: quasi-random points for the mass properties of a template whose spheres overlap
+#: quasi-random points (engine.clumps.halton_points) for the mass properties of a template whose spheres overlap
 DEFAULT_SAMPLES = 2 ** 20
 
 
@@ -58,7 +58,7 @@ def mass_properties(centres, radii, density: float, samples: int = DEFAULT_SAMPL
     """Volume (m^3), mass (kg), centre of mass (m), inertia tensor about it (kg m^2) of a union of spheres.
 
     Spheres that do not overlap: exact (sum of 4/3 pi r^3 and 2/5 m r^2, parallel-axis theorem). Overlapping
-    spheres: integration over scrambled Sobol points (scipy.stats.qmc) in the bounding box, each point counted
+    spheres: integration over quasi-random points in the bounding box (`halton_points`), each point counted
     once however many spheres hold it (LIGGGHTS' fix particletemplate/multisphere integrates by Monte Carlo
     too). `error` is the relative standard error of plain Monte Carlo with as many points,
     sqrt((1 - p) / (p N)) for the volume fraction p of the box - an upper bound for the quasi-random points
@@ -78,12 +78,9 @@ def mass_properties(centres, radii, density: float, samples: int = DEFAULT_SAMPL
         for k in range(len(r)):
             inertia += 0.4 * m[k] * r[k] ** 2 * np.eye(3) + m[k] * (d[k] @ d[k] * np.eye(3) - np.outer(d[k], d[k]))
         return dict(volume=float(vol.sum()), mass=float(m.sum()), com=com, inertia=inertia, error=0.0, exact=True)
-    from scipy.stats import qmc
-
     lo = (c - r[:, None]).min(axis=0)
     hi = (c + r[:, None]).max(axis=0)
     box = float(np.prod(hi - lo))
-    sobol = qmc.Sobol(d=3, scramble=True, seed=seed)
     count = 0
     first = np.zeros(3)
     second = np.zeros((3, 3))
@@ -91,7 +88,7 @@ def mass_properties(centres, radii, density: float, samples: int = DEFAULT_SAMPL
     remaining = int(samples)
     while remaining > 0:  # in batches: 2^16 points x spheres of booleans at a time
         take = min(remaining, 2 ** 16)
-        p = lo + (hi - lo) * sobol.random(take)
+        p = lo + (hi - lo) * halton_points(n_total, take, seed)
         inside = np.zeros(take, dtype=bool)
         for k in range(len(r)):
             inside |= np.einsum("ij,ij->i", p - c[k], p - c[k]) <= r[k] * r[k]
@@ -109,6 +106,24 @@ def mass_properties(centres, radii, density: float, samples: int = DEFAULT_SAMPL
     inertia = mass * (np.trace(cov) * np.eye(3) - cov)
     error = math.sqrt((1.0 - frac) / (frac * n_total))
     return dict(volume=volume, mass=mass, com=com, inertia=inertia, error=error, exact=False)
+
+
+def halton_points(start: int, count: int, seed: int) -> np.ndarray:
+    """Points start .. start + count - 1 of the 3-d Halton sequence (radical inverses in bases 2, 3, 5) in the
+    unit cube, shifted modulo 1 by one random vector drawn from seed (Cranley-Patterson rotation: the points
+    keep their low discrepancy - error about (log N)^3 / N - and become an unbiased estimate)."""
+    shift = np.random.Generator(np.random.PCG64([seed, 7])).random(3)
+    out = np.empty((count, 3))
+    for axis, base in enumerate((2, 3, 5)):
+        index = np.arange(start + 1, start + count + 1, dtype=np.int64)
+        value = np.zeros(count)
+        scale = 1.0
+        while np.any(index > 0):
+            scale /= base
+            value += scale * (index % base)
+            index //= base
+        out[:, axis] = (value + shift[axis]) % 1.0
+    return out
 
 
 def principal_frame(inertia: np.ndarray):
