@@ -12,6 +12,8 @@ and is compiled only into the kernels of scenes that have clumps (`engine.kernel
 - a member's `inv_mass` and `inv_inertia` are 0, so the particle pass's half kicks leave it alone; its `mass`
   is its body's mass (the effective mass of a contact is the body's, as in LIGGGHTS' multisphere model);
 - pairs of two members of one body are skipped in the pair loop (`SAME_BODY`);
+- on one thread the particle pass stores a member's force and torque totals where it starts a free sphere's
+  next evaluation (m g, zero) after the drift (`member_clear`): body_pass reads and clears them;
 - after each force evaluation `body_pass` sums the members' forces (without their gravity, m_body g each)
   onto the body, and their torques plus (x_i - X) x F_i; then integrates the body (velocity Verlet for the
   translation and the angular momentum, Richardson iteration for the quaternion) and places the members
