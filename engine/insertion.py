@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from . import particle_set, regions
+from . import clumps, particle_set, regions
 from .scene import random_packing
 from .walls import overlap_ratios
 from .script import Fields
@@ -137,13 +137,28 @@ def radii_of(fields: Fields):
     return dist
 
 
+def clump_template_of(sim, fields: Fields):
+    """The clump template an insert modifier names in `template` (and the bodies it will add to), or None."""
+    name = fields.string("template", None)
+    if name is None:
+        return None
+    if name not in sim.clump_templates:
+        raise fields.error("template", f"names no clump template '{name}' (templates: "
+                           f"{', '.join(sorted(sim.clump_templates)) or 'none'})")
+    if sim.bodies is None:  # the run compiles the clump kernels from its start on
+        sim.bodies = clumps.empty_bodies(sim.next_id)
+    return sim.clump_templates[name]
+
+
 class Inserter:
     """The state and the insertion step of one insert modifier (see the module docstring)."""
 
     def __init__(self, name: str, fields: Fields, sim):
         self.name = name
         self.every = fields.integer("every", required=True, minimum=1)
-        t = fields.integer("type", required=True, minimum=1)
+        # clumps of a template (engine/clumps.py) instead of spheres: their material is the template's
+        self.template = clump_template_of(sim, fields)
+        t = self.template.type if self.template else fields.integer("type", required=True, minimum=1)
         if t not in sim.materials:
             raise fields.error("type", f"names unknown material type {t} (create a material with this type "
                                "first)")
@@ -159,7 +174,8 @@ class Inserter:
         self.total = fields.integer("total", None, minimum=0)
         self.total_mass = fields.number("total_mass", None, minimum=0.0)
         self.start = fields.integer("start", 0, minimum=0)
-        self.radii = radii_of(fields)
+        # a template's clumps are placed as their bounding spheres (no overlap with anything there)
+        self.radii = Constant(self.template.bounding_radius) if self.template else radii_of(fields)
         self.velocity = np.array(fields.vector("velocity", default=[0.0, 0.0, 0.0]))
         self.omega = np.array(fields.vector("omega", default=[0.0, 0.0, 0.0]))
         self.seed = fields.integer("seed", required=True, minimum=0)
@@ -203,6 +219,12 @@ class Inserter:
     def due(self, step: int) -> bool:
         return step >= self.start and step % self.every == 0 and step != self.last_step
 
+    def _mass(self, radii) -> np.ndarray:
+        """kg: of spheres of these radii, or of as many clumps of the template."""
+        if self.template is not None:
+            return np.full(np.shape(radii), self.template.mass)
+        return sphere_mass(self.density, radii)
+
     def _radii(self, rng) -> np.ndarray:
         """Radii of this insertion: what the cumulative target still asks for (module docstring)."""
         if self.rate is not None:
@@ -216,9 +238,9 @@ class Inserter:
         room = target - self.inserted_mass
         taken: list = []
         while True:  # one particle after the other, while the next still fits under the target
-            batch = max(16, int(2 * room / float(sphere_mass(self.density, self.radii.max))) + 16)
+            batch = max(16, int(2 * room / float(self._mass(self.radii.max))) + 16)
             draw = self.radii.sample(rng, batch)
-            mass = sphere_mass(self.density, draw)
+            mass = self._mass(draw)
             cumulative = np.cumsum(mass)
             fits = int(np.searchsorted(cumulative, room, side="right"))
             taken.append(draw[:fits])
@@ -255,7 +277,13 @@ class Inserter:
                             "(warned once)")
         if placed == 0:
             return 0
-        mass = sphere_mass(self.density, radii)
+        mass = self._mass(radii)
+        if self.template is not None:  # random orientations, seeded with (seed, k, 3)
+            q = clumps.random_quaternions(np.random.Generator(np.random.PCG64([self.seed, k, 3])), placed)
+            clumps.add_bodies(sim, self.template, points, q, self.velocity, self.omega, mid_run=True)
+            self.inserted_count += placed
+            self.inserted_mass += float(np.sum(mass))
+            return placed
         gravity = sim.gravity_vector()
         particle_set.insert(
             sim, x=points, v=np.tile(self.velocity, (placed, 1)), omega=np.tile(self.omega, (placed, 1)),
@@ -295,11 +323,15 @@ class Outlet:
         if not self.due(sim.step):
             return 0
         self.last_step = sim.step
-        inside = regions.contains(self.region, sim.state.x)
+        inside = clumps.whole_bodies(sim, regions.contains(self.region, sim.state.x))  # whole clumps
         if not inside.any():
             return 0
-        self.removed_mass += float(np.sum(sim.state.mass[inside]))
+        if sim.bodies is None:
+            self.removed_mass += float(np.sum(sim.state.mass[inside]))
+        else:  # a clump's members carry its whole mass each: count the bodies' masses
+            self.removed_mass += float(np.sum(clumps.masses_and_positions(sim, inside)[0]))
         removed = particle_set.remove(sim, ~inside)
+        clumps.recount(sim)
         self.removed_count += removed
         return removed
 

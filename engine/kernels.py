@@ -24,6 +24,7 @@ import sys
 from collections import namedtuple
 from dataclasses import field, make_dataclass
 
+from . import clumps
 from .contact_laws import slip_velocity
 from .jit import cache_dir
 from .models import LAWS, PARAMETERS, SUBMODELS, options
@@ -94,14 +95,16 @@ class _CombinationLogic:
 
 #: Everything that changes the compiled code of a scene: a frozen dataclass with a field per kind of submodel
 #: (the law's name, models.SUBMODELS) and per option of the contact model (models.options), a flag per wall
-#: feature (walls.WALL_FEATURES), gravity, the periodic axes and parallel (loops compiled for several threads)
+#: feature (walls.WALL_FEATURES), gravity, the periodic axes, clumps (multisphere bodies, engine/clumps.py; not
+#: in the repr, which the generated source quotes: generate_source names it only where set) and parallel (loops
+#: compiled for several threads)
 Combination = make_dataclass(
     "Combination",
     [(kind, str, field(default=sub.default)) for kind, sub in SUBMODELS.items()]
     + [(name, bool, field(default=option.default)) for name, option in options().items()]
     + [(name, bool, field(default=False)) for name in WALL_FEATURES]
     + [("gravity", bool, field(default=False)), ("periodic", tuple, field(default=(False, False, False))),
-       ("parallel", bool, field(default=False))],
+       ("clumps", bool, field(default=False, repr=False)), ("parallel", bool, field(default=False))],
     bases=(_CombinationLogic,), frozen=True)
 
 
@@ -194,9 +197,10 @@ RESET_HISTORY = "for h in range(${width}):\n    ${target} = 0.0\n"
 #: j directly, in the same order (the former serial loop).
 PAIR_FORCES = '''\
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def pair_forces(s, n, nbr, pp, dt, char_vel, box):
+def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
     """Contact forces of the listed pairs (half list: each pair once, by i < j)."""
     ${unpack}
+    ${same_body_head}
     nbr_start = nbr.start
     nbr_j = nbr.j
     pair_hist = nbr.hist
@@ -204,6 +208,7 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box):
     reaction = nbr.reaction
     for i in prange(n):
         ${particle_head}
+        ${body_i}
         for k in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_j[k]
             dx = xi0 - x[j, 0]
@@ -214,6 +219,7 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box):
             rj = radius[j]
             radsum = ri + rj
             ${row}
+            ${same_body}
             if rsq >= radsum * radsum:
                 ${reset_history}
                 ${zero_row}
@@ -394,7 +400,7 @@ if record:
 
 STEP_LOOP = '''\
 @njit(cache=True, error_model="numpy")
-def setup(s, n, nbr, mnbr, walls, pp, c, step, lost):
+def setup(s, n, nbr, mnbr, walls, pp, c, step, lost${bodies}):
     """Fresh neighbor lists and forces for the current state (start of a run after the scene changed).
     Returns (particles kept, neighbor list, mesh contact list)."""
     ${constants}
@@ -402,18 +408,19 @@ def setup(s, n, nbr, mnbr, walls, pp, c, step, lost):
     n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer)
     ${wall_setup}
     ${clear_forces}
-    pair_forces(s, n, nbr, pp, dt, char_vel, box)
+    pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies})
     record = True
     wall_part = np.zeros((n, ${nwalls}, 3))
     wall_tpart = np.zeros((n, ${nwalls}, 3))
     particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, False, False, record, wall_part, wall_tpart,
                   0.0, plane_near)
+    ${body_setup}
     ${wall_force_sum}
     return n, nbr, mnbr
 
 
 @njit(cache=True, error_model="numpy")
-def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost):
+def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost${bodies}):
     """nsteps Velocity-Verlet steps (fix nve/sphere order) of the first n particles of state s. Returns
     (status, bad particle, steps done, rebuilds, particles kept, neighbor list, mesh contact list); status 1 =
     non-finite position. timers += [neigh, pair, modify] in s."""
@@ -429,6 +436,7 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost):
     t0 = now()
     ${wall_start}
     need, first_bad = drift_pass(s, n, dt, half_skin_sq, gravity)
+    ${body_start}
     neigh = 0.0
     pair = 0.0
     modify = now() - t0
@@ -447,13 +455,14 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost):
             ${wall_rebuild}
             rebuilds += 1
         t2 = now()
-        pair_forces(s, n, nbr, pp, dt, char_vel, box)
+        pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies})
         t3 = now()
         record = k_step == nsteps - 1
         wall_part = np.zeros((n if record else 0, ${nwalls}, 3))
         wall_tpart = np.zeros((n if record else 0, ${nwalls}, 3))
         need, first_bad = particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, True, not record, record,
                                         wall_part, wall_tpart, half_skin_sq, plane_near)
+        ${body_step}
         ${wall_force_sum}
         t4 = now()
         neigh += t2 - t1
@@ -567,10 +576,15 @@ def _pair_forces(c: Combination) -> str:
     periodic = "".join(f"d{name} -= box[{a}] * np.rint(d{name} / box[{a}])\n"
                        for a, name in enumerate("xyz") if c.periodic[a])
     rows = c.parallel  # several threads: pair rows for the partner, gathered in the particle pass
+    zero_row = f"for h in range({c.reaction_width}):\n    reaction[q, h] = 0.0" if rows else ""
+    # clumps (engine/clumps.py): two members of one body do not touch; no such lines in a scene of spheres
+    body_slots = dict(same_body_head=clumps.SAME_BODY_HEAD, body_i="body_i = member_body[pid[i]]",
+                      same_body=render(clumps.SAME_BODY, zero_row=zero_row)) if c.clumps else \
+        dict(same_body_head=None, body_i=None, same_body=None)
     return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), particle_head=PARTICLE_HEAD,
                   periodic_image=periodic, row="q = rslot[k]" if rows else "", reset_history=_reset_history(c, "pair"),
-                  zero_row=f"for h in range({c.reaction_width}):\n    reaction[q, h] = 0.0" if rows else "",
-                  contact=contact_code(c, "pair"), own_sum=OWN_SUM[rows])
+                  zero_row=zero_row, contact=contact_code(c, "pair"), own_sum=OWN_SUM[rows],
+                  bodies=", bodies" if c.clumps else "", **body_slots)
 
 
 def _particle_pass(c: Combination, parts: list) -> str:
@@ -591,6 +605,8 @@ def _particle_pass(c: Combination, parts: list) -> str:
     # several threads: the totals stay (the pair pass assigns f and torque anew); one thread: gravity, zero
     clear = STORE_TOTALS if c.parallel else "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)) + \
         "torque[i, 0] = 0.0\ntorque[i, 1] = 0.0\ntorque[i, 2] = 0.0\n"
+    if c.clumps:  # a member's totals stay for its body's pass (engine/clumps.py)
+        clear = clumps.member_clear(clear, STORE_TOTALS)
     load = "".join(f"{local}{a} = {array}[i, {a}]\n" for local, array in (("v", "v"), ("w", "omega")) for a in range(3))
     integrate = render(INTEGRATE, clear=clear, store_totals=STORE_TOTALS, half_kick=HALF_KICK, load=load)
     return render(PARTICLE_PASS, unpack=unpack("s", FIELD_NAMES), unpack_walls=unpack_walls,
@@ -604,7 +620,10 @@ def _step_loop(c: Combination, parts: list) -> str:
                   wall_setup=joined("setup"), wall_start=joined("at_start"), wall_rebuild=joined("after_rebuild"),
                   nwalls="walls.force.shape[0]" if c.has_walls else "0",
                   clear_forces="" if c.parallel else "clear_forces(s, n, gravity)",
-                  wall_force_sum=WALL_FORCE_SUM if c.has_walls else "")
+                  wall_force_sum=WALL_FORCE_SUM if c.has_walls else "",
+                  # clumps (engine/clumps.py): the bodies' pass follows the particles'; none in a scene of spheres
+                  bodies=", bodies" if c.clumps else "", body_setup=clumps.BODY_SETUP if c.clumps else None,
+                  body_start=clumps.BODY_START if c.clumps else None, body_step=clumps.BODY_STEP if c.clumps else None)
 
 
 def generate_source(c: Combination) -> str:
@@ -616,8 +635,11 @@ def generate_source(c: Combination) -> str:
     body = pair_forces + particle_pass + step_loop
     called = sorted({fn for law in c.laws() for fn in law.functions}, key=lambda fn: fn.__name__) + [slip_velocity]
     called += [fn for part in parts for fn in part.calls]
+    if c.clumps:
+        called.append(clumps.body_pass)
     imports = "".join(f"from {fn.__module__} import {fn.__name__}\n" for fn in called if fn.__name__ + "(" in body)
-    source = render(MODULE, combination=repr(c), imports=imports, pair_forces=pair_forces,
+    # the clumps flag is named only where set: a scene of spheres has the source of an engine without clumps
+    source = render(MODULE, combination=repr(c) + (" with clumps" if c.clumps else ""), imports=imports, pair_forces=pair_forces,
                     particle_pass=particle_pass, clear_forces=clear_forces, step_loop=step_loop,
                     wall_functions="".join(part.functions for part in parts))
     # one thread: the loops compiled serially (prange is range there)

@@ -85,4 +85,7 @@ def write_vtk(sim, folder: str, prefix: str):
     s = sim.state
     order = np.argsort(s.pid, kind="stable")
     write_vtp(folder / f"{prefix}_{sim.step}.vtp", s.pid[order], s.ptype[order] + 1, s.x[order], s.v[order],
-              s.f[order], s.omega[order], s.radius[order])
+              s.f[order], s.omega[order], s.radius[order],
+              # clump members: the id of their body (engine/clumps.py), 0 for a free sphere
+              extra={} if sim.bodies is None else {"body": sim.bodies.bid[np.maximum(
+                  sim.bodies.member_body[s.pid[order]], 0)] * (sim.bodies.member_body[s.pid[order]] >= 0)})

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import regions
+from . import clumps, regions
 from .errors import InputError
 from .neighbor import overlap_statistics
 from .script import AXES
@@ -40,34 +40,59 @@ def overlaps(sim):
     """(particle-particle contacts, contacts above 10 % overlap, max overlap / smaller radius)."""
     if sim.lo is None or len(sim.nbr.start) != sim.n + 1:
         return 0, 0, 0.0
+    if sim.bodies is not None:  # members of one clump overlap by design: not contacts
+        return clumps.overlaps(sim, OVERLAP_WARN_RATIO)
     return overlap_statistics(sim.state.x, sim.state.radius, sim.nbr.start, sim.nbr.j, sim.lo, sim.hi,
                               sim.periodic, OVERLAP_WARN_RATIO)
 
 
 def _ke(sim, mask=slice(None)):
+    if sim.bodies is not None:  # a clump counts as its body (engine/clumps.py)
+        return clumps.kinetic_energy(sim, mask)
     s = sim.state
     return float(0.5 * np.sum(s.mass[mask] * _speed_sq(s)[mask]))
 
 
 def _rke(sim, mask=slice(None)):
+    if sim.bodies is not None:
+        return clumps.rotational_energy(sim, mask)
     s = sim.state
     return float(0.5 * np.sum(0.4 * s.mass[mask] * s.radius[mask] ** 2
                               * np.einsum("ij,ij->i", s.omega, s.omega)[mask]))
 
 
 def _pe(sim):
+    if sim.bodies is not None:
+        mass, x, _ = clumps.masses_and_positions(sim)
+        return float(-np.sum(mass * (x @ sim.gravity_vector())))
     return float(-np.sum(sim.state.mass * (sim.state.x @ sim.gravity_vector())))
 
 
+def _bodies(sim):
+    """(masses, positions, velocities): of the particles, or of the free spheres and clump bodies."""
+    if sim.bodies is not None:
+        return clumps.masses_and_positions(sim)
+    return sim.state.mass, sim.state.x, sim.state.v
+
+
 def _momentum(axis):
-    return lambda sim: float(np.sum(sim.state.mass * sim.state.v[:, axis]))
+    def value(sim):
+        mass, _, v = _bodies(sim)
+        return float(np.sum(mass * v[:, axis]))
+    return value
 
 
 def _com(axis):
     def value(sim):
-        mass = sim.state.mass
-        return float(np.sum(mass * sim.state.x[:, axis]) / np.sum(mass)) if len(mass) else math.nan
+        mass, x, _ = _bodies(sim)
+        return float(np.sum(mass * x[:, axis]) / np.sum(mass)) if len(mass) else math.nan
     return value
+
+
+def _selected_mass(sim, mask):
+    if sim.bodies is not None:
+        return float(np.sum(clumps.masses_and_positions(sim, mask)[0]))
+    return float(np.sum(sim.state.mass[mask]))
 
 
 GLOBAL = {
@@ -102,7 +127,7 @@ WALL_QUANTITY = re.compile(r"^wall_([ft])([xyz])\[([^\]]+)\]$")
 #: sums over the particles a selection picks: NAME[type=T], NAME[region=R] or NAME[type=T,region=R]
 SELECTED = {
     "count": Quantity("-", "number of particles", lambda sim, mask: int(np.count_nonzero(mask))),
-    "mass": Quantity("kg", "total mass", lambda sim, mask: float(np.sum(sim.state.mass[mask]))),
+    "mass": Quantity("kg", "total mass", _selected_mass),
     "ke": Quantity("J", "translational kinetic energy", _ke),
     "rke": Quantity("J", "rotational kinetic energy", _rke),
 }
@@ -132,8 +157,13 @@ def selection(name: str):
     return m.group(1), chosen.get("type"), chosen.get("region")
 
 
+#: per clump: body_NAME[ID] (engine/clumps.py BODY_QUANTITIES), ID the body id from 1
+BODY_QUANTITY = re.compile(r"^body_(%s)\[(\d+)\]$" % "|".join(clumps.BODY_QUANTITIES))
+
+
 def known(name: str) -> bool:
-    return (name in GLOBAL or PARTICLE_QUANTITY.match(name) is not None or WALL_QUANTITY.match(name) is not None
+    return (name in GLOBAL or BODY_QUANTITY.match(name) is not None or PARTICLE_QUANTITY.match(name) is not None
+            or WALL_QUANTITY.match(name) is not None
             or selection(name) is not None or MODIFIER_QUANTITY.match(name) is not None)
 
 
@@ -202,6 +232,9 @@ def evaluate(sim, name: str):
             return math.nan
         field, component = PARTICLE[m.group(1)]
         return float(getattr(sim.state, field)[where[0], component])
+    m = BODY_QUANTITY.match(name)
+    if m:
+        return clumps.body_value(sim, m.group(1), int(m.group(2)))
     if name in GLOBAL:
         return GLOBAL[name].value(sim)
     raise KeyError(name)

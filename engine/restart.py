@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import clumps
 from . import state as particle_state
 from .errors import InputError, output_failure
 from .mesh import MeshList
@@ -37,7 +38,8 @@ def write_restart(sim, path: str):
                      walls=json.dumps(sim.walls), **wall_arrays(sim),
                      modifier_state=json.dumps(modifier_state(sim)),
                      **particle_state.as_arrays(sim.state),
-                     **{key: getattr(sim.nbr, name) for key, name in NEIGHBOR_ARRAYS.items()})
+                     **{key: getattr(sim.nbr, name) for key, name in NEIGHBOR_ARRAYS.items()},
+                     **clumps.restart_arrays(sim))
     except OSError as exc:
         raise output_failure("restart file", path, exc) from None
     sim.log.info(f"wrote restart file {path} at step {sim.step}")
@@ -98,6 +100,7 @@ def read_restart(sim, path: str, fields: Fields):
         raise fields.error("file", f"{path} is not a consistent restart file: {exc}") from None
     try:
         states = _modifier_states(data)
+        clumps.restore(sim, data)
     except ValueError as exc:
         raise fields.error("file", f"{path} is not a consistent restart file: {exc}") from None
     for w in walls:

@@ -32,7 +32,8 @@ def combination(sim, parallel: bool = False) -> Combination:
     model = {name: sim.model[name] for name in (*SUBMODELS, *options())}
     return Combination(parallel=parallel, **model, **wall_features(sim.walls),
                        gravity=any(mod.acceleration() is not None for mod in sim.active_modifiers()),
-                       periodic=tuple(bool(p) for p in sim.periodic))
+                       periodic=tuple(bool(p) for p in sim.periodic),
+                       clumps=sim.bodies is not None)
 
 
 def steps_of(fields: Fields) -> int:
@@ -141,10 +142,20 @@ class _Kernel:
                                    skin=sim.skin, history_transfer=np.array(self.combo.history_transfer(),
                                                                             dtype=np.float64))
 
+    def bodies(self, sim) -> tuple:
+        """The trailing arguments of the kernels of clump scenes: the bodies (engine/clumps.py), read from sim at
+        each call (inserting clumps mid-run replaces the bodies' arrays); none for a scene of spheres."""
+        return (sim.bodies,) if self.combo.clumps else ()
+
+    def setup(self, sim, lost):
+        """Fresh neighbor lists and forces for sim's state (kernels.STEP_LOOP setup)."""
+        return self.module.setup(sim.state, sim.n, sim.nbr, sim.mesh_nbr, self.walls, self.pp, self.constants,
+                                 sim.step, lost, *self.bodies(sim))
+
     def steps(self, sim, nsteps: int, timers, lost):
         """nsteps compiled steps from sim's state (kernels.STEP_LOOP run_steps)."""
         return self.module.run_steps(sim.state, sim.n, sim.nbr, sim.mesh_nbr, self.walls, self.pp, self.constants,
-                                     sim.step, nsteps, timers, lost)
+                                     sim.step, nsteps, timers, lost, *self.bodies(sim))
 
 
 def _prepare(sim, fields: Fields, threads: int) -> tuple:
@@ -155,8 +166,7 @@ def _prepare(sim, fields: Fields, threads: int) -> tuple:
     guards.check_timestep(sim, fields.where)
     if sim.dirty:
         lost = lost_record(sim.n)
-        n, sim.nbr, sim.mesh_nbr = kernel.module.setup(sim.state, sim.n, sim.nbr, sim.mesh_nbr, kernel.walls,
-                                                       kernel.pp, kernel.constants, sim.step, lost)
+        n, sim.nbr, sim.mesh_nbr = kernel.setup(sim, lost)
         sim.state = particle_state.trimmed(sim.state, n)
         guards.report_lost(sim, lost, fields.where, sim.n + int(lost.count[0]))
     # a zero-step call compiles run_steps (or loads it from the disk cache) outside the timed loop

@@ -51,6 +51,8 @@ class Simulation:
         self.nbr = empty_list()
         self.mesh_nbr = empty_mesh_list()  # particle-triangle contacts (engine/mesh.py)
         self.next_id = 1
+        self.clump_templates: dict = {}  # name -> engine.clumps.Template
+        self.bodies = None  # engine.clumps.Bodies once a scene has clumps
         self.modifiers: dict[str, modifiers.Modifier] = {}
         self.active: list[str] = []  # fixed modifiers, in the order they were fixed
         self.modifier_state: dict[str, dict] = {}  # modifier name -> counters read from a restart file

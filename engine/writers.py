@@ -71,10 +71,11 @@ def _format(value) -> str:
     return repr(float(value))
 
 
-def write_vtp(path: Path, ids, types, x, v, f, omega, radius):
+def write_vtp(path: Path, ids, types, x, v, f, omega, radius, extra=None):
     """Particles as VTK PolyData (.vtp, ParaView): points with vertex cells and per-point data arrays.
 
-    Arrays: id, type (user numbering, from 1), velocity (m/s), force (N), omega (rad/s), radius (m).
+    Arrays: id, type (user numbering, from 1), velocity (m/s), force (N), omega (rad/s), radius (m), and the
+    arrays of `extra` (name -> values; clump scenes: `body`, the body id of each member sphere).
     """
     # the few VTK modules a PolyData file needs: `import vtk` loads all of VTK (about 110 MB more memory)
     from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
@@ -94,7 +95,8 @@ def write_vtp(path: Path, ids, types, x, v, f, omega, radius):
     poly.SetVerts(cells)
     data = poly.GetPointData()
     for name, values in (("id", np.asarray(ids, dtype=np.int64)), ("type", np.asarray(types, dtype=np.int32)),
-                         ("velocity", v), ("force", f), ("omega", omega), ("radius", radius)):
+                         ("velocity", v), ("force", f), ("omega", omega), ("radius", radius),
+                         *(extra or {}).items()):
         array = numpy_to_vtk(np.ascontiguousarray(values), deep=True)
         array.SetName(name)
         data.AddArray(array)

@@ -25,7 +25,7 @@ if [ "${HARNESS_SKIP_APT:-0}" != 1 ] && command -v apt-get >/dev/null 2>&1; then
 fi
 
 if ! command -v harness >/dev/null 2>&1 || ! command -v dem >/dev/null 2>&1 \
-   || ! python3 -c "import numba, vtk, django, git, junit_xml, pytest, playwright, distributed, filelock, xmlschema, psycopg, dj_database_url, simpleeval" 2>/dev/null \
+   || ! python3 -c "import numba, vtk, django, git, junit_xml, pytest, playwright, distributed, filelock, xmlschema, psycopg, dj_database_url, simpleeval, scipy" 2>/dev/null \
    || [ pyproject.toml -nt .harness/.installed ]; then
     echo "setup: installing Python packages (pip install -e .[test])"
     python3 -m pip install -q --disable-pip-version-check -e ".[test]"

@@ -15,6 +15,15 @@ def test_render_indents_block_slots_and_fills_inline_ones():
     assert out == "def f(x):\n    y = x\n    if y < 0:\n        y = -y\n    return y\n"
 
 
+def test_render_leaves_out_a_line_slot_given_none():
+    """An optional hook (the clumps' slots) given None: the text of the template without that line; given an
+    empty string the line stays empty (the slots of the other features)."""
+    template = "def f(x):\n    ${hook}\n    ${empty}\n    return x\n${last}"
+    assert render(template, hook=None, empty="", last=None) == "def f(x):\n\n    return x\n"
+    assert render(template, hook="x += 1", empty="", last="y = f(0)") == \
+        "def f(x):\n    x += 1\n\n    return x\ny = f(0)"
+
+
 def test_a_new_contact_law_is_one_entry(monkeypatch):
     """A law is its function, named parameter columns and a call; the builder does the rest."""
     law = models.Law("normal", "linear_test", (cl.hooke_normal,), parameters=("ystar", "friction"),
