@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from harness.adapters import get_adapter
-from harness.postprocess import dump_step, read_vtk_points
+from harness.execution.postprocess import dump_step, read_vtk_points
 
 T_STEADY = 1.0    # s, start of the steady part (the bed forms and first reaches its angle by 0.6 s)
 WINDOW = 0.5      # s, about one avalanche period at omega = 2 rad/s
