@@ -93,7 +93,7 @@ def _axis_cells(c, nc, periodic):
     return min(c + 1, nc - 1) - first + 1, first, first + 1, first + 2
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _neighbor_cells(c, nc, periodic):
     """The neighbor cells of cell c (flat index over nc): per axis how many, then per axis their indices."""
     mx, x0, x1, x2 = _axis_cells(c // (nc[1] * nc[2]), nc[0], periodic[0])
