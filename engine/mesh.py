@@ -223,6 +223,29 @@ def normals(triangles: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------- compiled geometry
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _corner_dots(px, py, pz, tv, t, k, abx, aby, abz, acx, acy, acz):
+    """ab . (p - corner k) and ac . (p - corner k) of triangle t: the barycentric tests of closest_point."""
+    qx = px - tv[t, k, 0]
+    qy = py - tv[t, k, 1]
+    qz = pz - tv[t, k, 2]
+    return abx * qx + aby * qy + abz * qz, acx * qx + acy * qy + acz * qz
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _corner_or_edge(tv, t, k, own, cross, a_own, a_cross, ax, ay, az, ex, ey, ez, corner_region, edge_region):
+    """Ericson's tests of corner k (1 or 2) of triangle t and of the edge from corner 0 to it (direction e):
+    ``own`` and ``cross`` are p - corner k dotted with e and with the other edge, ``a_own`` and ``a_cross`` the
+    same of p - corner 0. (hit, closest point, region, the barycentric numerator v of the edge)."""
+    v = a_own * cross - own * a_cross
+    if own >= 0.0 and cross <= own:
+        return True, tv[t, k, 0], tv[t, k, 1], tv[t, k, 2], corner_region, v
+    if v <= 0.0 and a_own >= 0.0 and own <= 0.0:
+        s = a_own / (a_own - own)
+        return True, ax + s * ex, ay + s * ey, az + s * ez, edge_region, v
+    return False, ax, ay, az, 0, v
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def closest_point(px, py, pz, tv, t):
     """The point of triangle t (corners tv[t, 0..2]) closest to p, and its region (FACE, EDGE0 = corners 0-1,
     EDGE1 = 1-2, EDGE2 = 2-0, CORNER0..2). Ericson (2005) 5.1.5, by the signs of the barycentric parameters."""
@@ -235,35 +258,17 @@ def closest_point(px, py, pz, tv, t):
     acx = tv[t, 2, 0] - ax
     acy = tv[t, 2, 1] - ay
     acz = tv[t, 2, 2] - az
-    apx = px - ax
-    apy = py - ay
-    apz = pz - az
-    d1 = abx * apx + aby * apy + abz * apz
-    d2 = acx * apx + acy * apy + acz * apz
+    d1, d2 = _corner_dots(px, py, pz, tv, t, 0, abx, aby, abz, acx, acy, acz)
     if d1 <= 0.0 and d2 <= 0.0:
         return ax, ay, az, 4
-    bpx = px - tv[t, 1, 0]
-    bpy = py - tv[t, 1, 1]
-    bpz = pz - tv[t, 1, 2]
-    d3 = abx * bpx + aby * bpy + abz * bpz
-    d4 = acx * bpx + acy * bpy + acz * bpz
-    if d3 >= 0.0 and d4 <= d3:
-        return tv[t, 1, 0], tv[t, 1, 1], tv[t, 1, 2], 5
-    vc = d1 * d4 - d3 * d2
-    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-        s = d1 / (d1 - d3)
-        return ax + s * abx, ay + s * aby, az + s * abz, 1
-    cpx = px - tv[t, 2, 0]
-    cpy = py - tv[t, 2, 1]
-    cpz = pz - tv[t, 2, 2]
-    d5 = abx * cpx + aby * cpy + abz * cpz
-    d6 = acx * cpx + acy * cpy + acz * cpz
-    if d6 >= 0.0 and d5 <= d6:
-        return tv[t, 2, 0], tv[t, 2, 1], tv[t, 2, 2], 6
-    vb = d5 * d2 - d1 * d6
-    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-        s = d2 / (d2 - d6)
-        return ax + s * acx, ay + s * acy, az + s * acz, 3
+    d3, d4 = _corner_dots(px, py, pz, tv, t, 1, abx, aby, abz, acx, acy, acz)
+    hit, qx, qy, qz, region, vc = _corner_or_edge(tv, t, 1, d3, d4, d1, d2, ax, ay, az, abx, aby, abz, 5, 1)
+    if hit:
+        return qx, qy, qz, region
+    d5, d6 = _corner_dots(px, py, pz, tv, t, 2, abx, aby, abz, acx, acy, acz)
+    hit, qx, qy, qz, region, vb = _corner_or_edge(tv, t, 2, d6, d5, d2, d1, ax, ay, az, acx, acy, acz, 6, 3)
+    if hit:
+        return qx, qy, qz, region
     va = d3 * d6 - d5 * d4
     if va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0:
         s = (d4 - d3) / ((d4 - d3) + (d5 - d6))

@@ -55,16 +55,24 @@ def lost_record(capacity: int) -> LostParticles:
     return LostParticles(np.zeros(capacity, np.int64), np.zeros(capacity, np.int64), np.zeros(1, np.int64))
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _bucket_starts(key, nbuckets):
+    """First slot of each bucket when the entries are ordered by key (counting sort): start[b]..start[b + 1]
+    hold the entries with key b; start[nbuckets] is the number of entries."""
+    start = np.zeros(nbuckets + 1, dtype=np.int64)
+    for k in range(key.shape[0]):
+        start[key[k] + 1] += 1
+    for b in range(nbuckets):
+        start[b + 1] += start[b]
+    return start
+
+
 @njit(cache=True, error_model="numpy")
 def reverse_index(start, j, n):
     """(rstart, rslot): rows rstart[p]..rstart[p+1] for the pairs k with j[k] == p in increasing k (so
     increasing i); rslot[k] the row of pair k."""
-    rstart = np.zeros(n + 1, dtype=np.int64)
     m = j.shape[0]
-    for k in range(m):
-        rstart[j[k] + 1] += 1
-    for p in range(n):
-        rstart[p + 1] += rstart[p]
+    rstart = _bucket_starts(j, n)
     fill = rstart[:-1].copy()
     rslot = np.empty(m, dtype=np.int64)
     for k in range(m):
@@ -83,6 +91,15 @@ def _axis_cells(c, nc, periodic):
         return nc, 0, 1, 0
     first = max(c - 1, 0)
     return min(c + 1, nc - 1) - first + 1, first, first + 1, first + 2
+
+
+@njit(cache=True, error_model="numpy")
+def _neighbor_cells(c, nc, periodic):
+    """The neighbor cells of cell c (flat index over nc): per axis how many, then per axis their indices."""
+    mx, x0, x1, x2 = _axis_cells(c // (nc[1] * nc[2]), nc[0], periodic[0])
+    my, y0, y1, y2 = _axis_cells((c // nc[2]) % nc[1], nc[1], periodic[1])
+    mz, z0, z1, z2 = _axis_cells(c % nc[2], nc[2], periodic[2])
+    return mx, my, mz, (x0, x1, x2), (y0, y1, y2), (z0, z1, z2)
 
 
 @njit(cache=True, error_model="numpy")
@@ -146,12 +163,7 @@ def _candidates(cell, cell_start, nc, periodic, count):
     """Upper bound of each particle's neighbors j > i: the particles of its neighbor cells after it."""
     for i in prange(cell.shape[0]):
         c = cell[i]
-        mx, x0, x1, x2 = _axis_cells(c // (nc[1] * nc[2]), nc[0], periodic[0])
-        my, y0, y1, y2 = _axis_cells((c // nc[2]) % nc[1], nc[1], periodic[1])
-        mz, z0, z1, z2 = _axis_cells(c % nc[2], nc[2], periodic[2])
-        ox = (x0, x1, x2)
-        oy = (y0, y1, y2)
-        oz = (z0, z1, z2)
+        mx, my, mz, ox, oy, oz = _neighbor_cells(c, nc, periodic)
         total = 0
         for qa in range(mx):
             for qb in range(my):
@@ -166,12 +178,7 @@ def _search(x, radius, cell, cell_start, nc, periodic, box, skin, slot, found, c
     """Neighbors j > i within r_i + r_j + skin into found[slot[i]:], their number into count[i]."""
     for i in prange(cell.shape[0]):
         c = cell[i]
-        mx, x0, x1, x2 = _axis_cells(c // (nc[1] * nc[2]), nc[0], periodic[0])
-        my, y0, y1, y2 = _axis_cells((c // nc[2]) % nc[1], nc[1], periodic[1])
-        mz, z0, z1, z2 = _axis_cells(c % nc[2], nc[2], periodic[2])
-        ox = (x0, x1, x2)
-        oy = (y0, y1, y2)
-        oz = (z0, z1, z2)
+        mx, my, mz, ox, oy, oz = _neighbor_cells(c, nc, periodic)
         ri = radius[i]
         m = slot[i]
         for qa in range(mx):
@@ -311,11 +318,7 @@ def _sort_by_cell(cell_of, kept, ncells, n):
     """Counting sort of the kept particles by cell (stable, so deterministic): (new order as old indices, cell
     of each new index, first new index of each cell, new index of each old one or -1)."""
     nk = kept.shape[0]
-    cell_start = np.zeros(ncells + 1, dtype=np.int64)
-    for q in range(nk):
-        cell_start[cell_of[q] + 1] += 1
-    for c in range(ncells):
-        cell_start[c + 1] += cell_start[c]
+    cell_start = _bucket_starts(cell_of[:nk], ncells)
     fill = cell_start[:-1].copy()
     order = np.empty(nk, dtype=np.int64)
     new_cell = np.empty(nk, dtype=np.int64)

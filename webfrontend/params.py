@@ -15,6 +15,9 @@ import re
 
 from django.core.exceptions import BadRequest
 
+from harness.store.models import Run
+from harness.store.runrecord import FAILURE_REASONS
+
 #: largest id the store's databases hold (SQLite INTEGER, PostgreSQL bigint of BigAutoField)
 MAX_ID = 2 ** 63 - 1
 _ASCII_ID = re.compile(r"[0-9]{1,19}")
@@ -172,9 +175,6 @@ def run_filters(query) -> dict:
     """The search and filters of the run lists, each None when not given: ``q`` (a substring of the test
     case path or the run name), ``commit`` (commit prefix of the run's build), ``build`` (build id),
     ``state`` (a run state) and ``reason`` (a failure reason, harness.store.runrecord.FAILURE_REASONS)."""
-    from harness.store.models import Run
-    from harness.store.runrecord import FAILURE_REASONS
-
     return {"q": text(query, "q"), "commit": commit_prefix(query, "commit"), "build": optional_id(query, "build"),
             "state": choice(query, "state", Run.State.values),
             "reason": choice(query, "reason", [r for r in FAILURE_REASONS if r])}

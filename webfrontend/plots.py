@@ -24,6 +24,9 @@ from __future__ import annotations
 
 import math
 
+from harness.analysis.consistency import AXIS_COLUMNS, axis_asked
+from harness.config.sweep import observed_order
+
 #: units of the thermo quantities every test case writes (thesis 4.4.1) and common abscissae;
 #: a series' own ``meta["units"]`` wins
 DEFAULT_UNITS = {
@@ -104,8 +107,6 @@ def quantities(series, consistency: dict | None = None) -> list[str]:
     it was read (``meta["order"]``: PostgreSQL's jsonb keeps no key order), else in stored order. A thermo
     axis column (step, time: harness.analysis.consistency.AXIS_COLUMNS) is left out unless the run configuration's
     ``consistency`` names it, as the check does."""
-    from harness.analysis.consistency import AXIS_COLUMNS, axis_asked
-
     cols = series.columns if isinstance(series.columns, dict) else {}
     order = (series.meta or {}).get("order")
     names = [n for n in order if n in cols] + [n for n in cols if n not in order] if isinstance(order, list) \
@@ -392,8 +393,6 @@ def positive(values: list) -> list:
 def sweep_plots(table, spec: dict, title: str) -> list[dict]:
     """A sweep (harness.config.sweep.SweepResult.table, its spec) as two log-log plots: error against run time (what
     accuracy costs) and error against the swept value with an order-2 reference slope."""
-    from harness.config.sweep import observed_order
-
     variable, quantity = spec["variable"], spec["error"]["quantity"]
     rows = [r for r in table.itertuples() if finite_or_none(r.error) and r.error > 0]
     by_time = sorted((r for r in rows if finite_or_none(r.run_time) and r.run_time > 0), key=lambda r: r.run_time)

@@ -2,12 +2,21 @@
 from __future__ import annotations
 
 import difflib
+import json
 from dataclasses import dataclass
 
 from django.urls import reverse
 from django.utils.http import urlencode
 
+from harness.analysis.check import provenance as provenance_text
+from harness.analysis.compare import Comparison, row_order
+from harness.analysis.compare import rows as compare_rows
+from harness.analysis.consistency import compare_runs
+from harness.analysis.matrix import QUANTITIES, _c, _short
+from harness.analysis.regressions import histories
+from harness.store.models import Run, Series
 from webfrontend import plots
+from webfrontend.runfiles import RECORD_NAME
 
 #: timing categories of the breakdown (thesis figure 4.8), in stacking order, with their colors
 TIMING_CATEGORIES = (("pair", "#1f77b4"), ("neigh", "#ff7f0e"), ("comm", "#2ca02c"),
@@ -77,8 +86,6 @@ def tail(text: str, limit: int) -> dict:
 def provenance(run) -> dict:
     """What a run's verdict was computed on, in short forms: the target's commit, the test case content
     hash and the reference run (its target and commit), with harness.analysis.check's one-line text as ``text``."""
-    from harness.analysis.check import provenance as provenance_text
-
     reference = run.reference_run if run.reference_run_id else None
     return {"commit": (run.build.commit or "")[:10], "testcase": run.short_hash,
             "reference": reference, "reference_commit": (reference.build.commit or "")[:10] if reference else "",
@@ -176,8 +183,6 @@ def run_plots(run, series, reference=None, reference_series=()) -> list[dict]:
     overlays it: a quantity the check scores is drawn over the reference with its 5 % and 10 % acceptance
     bands (harness.analysis.consistency.compare_runs, thesis fig. 4.11), a declared plot with the reference's curves.
     """
-    from harness.analysis.consistency import compare_runs
-
     consistency = (run.config or {}).get("consistency")
     by_key = {(s.kind, s.name): s for s in reference_series}
     results = {}
@@ -220,8 +225,6 @@ def compare_plots(runs, series) -> list[dict]:
     two runs the consistency bands of the second around the first and its deviation from it
     (harness.analysis.consistency.compare_runs, the score ``harness compare`` gives), for more each run's difference
     to the first."""
-    from harness.analysis.consistency import compare_runs
-
     by_key = _series_by_run(series)
     out = []
     for (kind, name), by_run in sorted(by_key.items(), key=lambda kv: (kv[0][0] != "plot", kv[0])):
@@ -257,8 +260,6 @@ def consistency_plots(results) -> list[dict]:
     results = [r for r in results if r.series_kind != "textfile" and r.value is not None]
     if not results:
         return []
-    from harness.store.models import Series
-
     run_ids = {r.run_id for r in results} | {r.reference_run_id for r in results}
     stored = {(s.run_id, s.kind, s.name): s for s in Series.objects.filter(
         run_id__in=run_ids, kind__in={r.series_kind for r in results}, name__in={r.series_name for r in results})}
@@ -273,8 +274,6 @@ def consistency_plots(results) -> list[dict]:
 
 
 def _history_of(target, case, machine):
-    from harness.analysis.regressions import histories
-
     # -k is a substring unless it holds glob characters; the test case is then matched exactly below
     pattern = None if any(c in case.path for c in "*?[") else case.path
     return [h for h in histories(machine.name, target.name, pattern) if h.testcase == case.path]
@@ -307,8 +306,6 @@ def history_plots(target, case, machine) -> list[dict]:
 def regression_rows(found, machine) -> list[dict]:
     """One row per marked commit of harness.analysis.regressions.histories, newest first, linking to the run and the
     test case's history."""
-    from harness.store.models import Run
-
     rows = []
     for h in found:
         for c in h.changes:
@@ -336,8 +333,6 @@ def comparison_rows(comparison, limit: int | None = None) -> list[dict]:
     order is the one ``rows`` gives the whole comparison (harness.analysis.compare.row_order). Only the rows shown are
     made: with 10,000 pairs, the others would cost most of the page's time.
     """
-    from harness.analysis.compare import Comparison, row_order, rows
-
     out = []
     for pair in sorted(comparison.pairs, key=row_order)[:limit]:
         single = Comparison(comparison.label_a, comparison.label_b, comparison.commit_a, comparison.commit_b,
@@ -345,7 +340,7 @@ def comparison_rows(comparison, limit: int | None = None) -> list[dict]:
         link = None
         if pair.a is not None and pair.b is not None:
             link = reverse("compare") + "?" + urlencode({"run": [pair.a.pk, pair.b.pk]}, doseq=True)
-        out.append({"pair": pair, "cells": rows(single)[1], "link": link,
+        out.append({"pair": pair, "cells": compare_rows(single)[1], "link": link,
                     "failing": pair.outcome in ("new_failure", "inconsistent")})
     return out
 
@@ -353,10 +348,6 @@ def comparison_rows(comparison, limit: int | None = None) -> list[dict]:
 def expectation_rows(files) -> list[dict]:
     """The expectation and stability results of a run (``verdicts`` in its run.json, harness/execution/execute.py:
     ``{"ok", "reason", "message"}`` each), failed ones first; [] when the record has none or is unreadable."""
-    import json
-
-    from webfrontend.runfiles import RECORD_NAME
-
     record = files.read(RECORD_NAME)
     try:
         verdicts = json.loads(record.text).get("verdicts") if record and not record.truncated else None
@@ -373,8 +364,6 @@ def matrix_blocks(matrix, run_ids: dict) -> list[dict]:
     is not perfect; each cell with its C as the CLI prints it and a link to the two runs compared, the
     reference first (the code's run in the bands around the reference's). ``run_ids`` is
     RunQuerySet.matrix_runs of the same targets."""
-    from harness.analysis.matrix import QUANTITIES, _c, _short
-
     blocks = []
     for (testcase, run_name), present in matrix.runs.items():
         codes = [n for n in matrix.targets if n in present]

@@ -18,8 +18,12 @@ from django.urls import reverse
 from django.utils.http import urlencode
 from django.views.decorators.http import require_POST
 
+from harness.analysis.compare import HEADER, compare_builds, summary
 from harness.analysis.coverage import covered_runs, failed_current_builds
+from harness.analysis.matrix import Matrix, _c, build_matrix, to_json
+from harness.analysis.regressions import comparable, histories
 from harness.analysis.verdicts import stored_junit_xml, stored_verdict
+from harness.config.sweep import current_sweeps, find_sweep
 from harness.execution.builds import current_build
 from harness.store.models import (
     Build,
@@ -34,8 +38,11 @@ from harness.store.models import (
 from harness.store.queries import (
     CONSISTENCY_CATEGORIES,
     STATE_CATEGORIES,
+    fold_into_children,
+    previous_builds,
     stepping_changes,
 )
+from harness.store.runrecord import FAILURE_REASONS
 from webfrontend import params, plots, presentation
 from webfrontend.forms import OverrideForm
 from webfrontend.runfiles import RunFolder
@@ -63,8 +70,6 @@ def _mode(request) -> tuple[str, str | None]:
 def _filters(request) -> dict:
     """The run lists' search and filters (webfrontend.params.run_filters) and what their pages need: the
     values, the query string that keeps them in every link (``filter_query``), the choices of the form."""
-    from harness.store.runrecord import FAILURE_REASONS
-
     values = params.run_filters(request.GET)
     kept = {k: v for k, v in values.items() if v is not None}
     return {"filters": values, "filtered": bool(kept), "filter_query": urlencode(kept),
@@ -337,8 +342,6 @@ def history_plots(request, target_id, testcase):
 def regressions(request):
     """The commits where a test case's stepping time or a quantity changed (harness.analysis.regressions.histories,
     as ``harness regressions`` prints them), on one machine, optionally of one target and ``-k`` pattern."""
-    from harness.analysis.regressions import comparable, histories
-
     machine = _one_machine(request, "regressions")
     target_id = params.optional_id(request.GET, "target")
     pattern = params.text(request.GET, "k")
@@ -366,15 +369,11 @@ def _one_machine(request, view: str):
 
 
 def sweeps(request):
-    from harness.config.sweep import current_sweeps
-
     return render(request, "webfrontend/sweeps.html", {"sweeps": current_sweeps()})
 
 
 def sweep_plots(request, build_id, testcase, name):
     """A sweep's error against run time and against the swept value, from the store (no image drawn)."""
-    from harness.config.sweep import find_sweep
-
     build = get_object_or_404(Build.objects.select_related("target"), pk=build_id)
     result = find_sweep(build, testcase, name)
     if result is None:
@@ -403,9 +402,6 @@ def commit_page(request, target, commit):
     """What a commit did to a target: its build on one machine (``?machine=NAME``, else the machine of its newest
     build of that commit), the verdict of its runs, and against the build of the commit before (history order):
     new failures, fixes, inconsistencies and the stepping-time change - what ``harness compare`` prints."""
-    from harness.analysis.compare import HEADER, compare_builds, summary
-    from harness.store.queries import fold_into_children, previous_builds
-
     target_row = get_object_or_404(Target, name=target)
     builds = Build.objects.filter(target=target_row, commit__startswith=commit.lower()).select_related(
         "machine", "target").defer("log")
@@ -448,8 +444,6 @@ def _reference_and_current() -> tuple[int, int] | None:
 def compare_builds_page(request):
     """Two builds side by side: what ``harness compare A B`` prints (harness.analysis.compare.compare_builds), each row
     linking to the two runs' comparison with the consistency bands of B around A."""
-    from harness.analysis.compare import HEADER, compare_builds, summary
-
     a_id, b_id = params.optional_id(request.GET, "a"), params.optional_id(request.GET, "b")
     defaulted = a_id is None and b_id is None
     if defaulted:
@@ -504,8 +498,6 @@ MATRIX_TARGET_LIMIT = 12
 def _matrix(request):
     """(machine, target names, -k pattern, harness.analysis.matrix.Matrix or None) of a matrix request: the targets
     named (``?target=ID``, in that order), else those named ``*-crosscode`` as ``harness matrix`` takes them."""
-    from harness.analysis.matrix import build_matrix
-
     machine = _one_machine(request, "matrix")
     ids = params.id_list(request.GET, "target", MATRIX_TARGET_LIMIT, "targets")
     pattern = params.text(request.GET, "k")
@@ -533,8 +525,6 @@ def matrix(request):
     machine, names, pattern, result = _matrix(request)
     blocks, lowest = [], []
     if result is not None:
-        from harness.analysis.matrix import _c
-
         blocks = presentation.matrix_blocks(result, Run.objects.matrix_runs(names, machine.name))
         lowest = [{"code": code, "reference": reference, "cell": cell, "text": _c(cell.value)}
                   for (code, reference), cell in sorted(result.lowest().items())]
@@ -550,8 +540,6 @@ def matrix(request):
 
 def matrix_json(request):
     """The matrix as ``harness matrix --json`` writes it (harness.analysis.matrix.to_json)."""
-    from harness.analysis.matrix import Matrix, to_json
-
     _, names, _, result = _matrix(request)
     return JsonResponse(to_json(result if result is not None else Matrix(names)),
                         json_dumps_params={"allow_nan": False})

@@ -28,6 +28,7 @@ from pathlib import Path
 
 from harness.adapters import register
 from harness.adapters.base import EngineAdapter, LogScan, UserError
+from harness.execution.postprocess import read_vtk_dataset
 
 LOG_NAME = "log.yade"
 SUPPORT = Path(__file__).resolve().parent / "yade_support"
@@ -58,15 +59,8 @@ def convert_vtu(source: Path, destination: Path) -> None:
     # a heavy library, loaded when this runs, not at every `harness` start
     import vtk
 
-    reader = vtk.vtkXMLUnstructuredGridReader()
-    reader.SetFileName(str(source))
-    reader.Update()
-    grid = reader.GetOutput()
-    if grid is None or grid.GetPoints() is None:
-        if grid is not None and grid.GetNumberOfPoints() == 0:
-            grid = None
-        else:
-            raise UserError(f"{source}: not a readable VTK UnstructuredGrid file")
+    grid = read_vtk_dataset(vtk.vtkXMLUnstructuredGridReader(), source,
+                            f"{source}: not a readable VTK UnstructuredGrid file")
     poly = vtk.vtkPolyData()
     if grid is not None:
         poly.SetPoints(grid.GetPoints())

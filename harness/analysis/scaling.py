@@ -26,11 +26,11 @@ at a time (``-j 1``), and a study whose largest point uses more cores than the m
 """
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import dataclass, field
 
 from harness.config.jsonfile import Problem
+from harness.config.sweep import point_entry
 
 SEPARATOR = "@"
 
@@ -76,12 +76,7 @@ def expand(entry: dict, parallelism: str = "mpi") -> list[dict]:
         return [entry]
     points = []
     for i, cores in enumerate(block["cores"]):
-        point = copy.deepcopy(entry)
-        del point["scaling"]
-        point["name"] = point_name(entry["name"], cores)
-        variables = point.setdefault("variables", {})
-        for name, values in block.get("with", {}).items():
-            variables[name] = values[i]
+        point = point_entry(entry, "scaling", i, point_name(entry["name"], cores), {})
         if parallelism == "mpi":
             point["type"], point["nprocs"] = "mpi", cores
         point["scaling_point"] = {"study": entry["name"], "cores": cores, "parallelism": parallelism,

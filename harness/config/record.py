@@ -11,10 +11,20 @@ from harness.config.check import Says
 
 #: version of the record layout; 1: before test case hashes; 2: ``testcase_hash`` and strict JSON
 RECORD_VERSION = 2
-STATES = ("not_executed", "executed", "failed", "post_processed", "consistency_checked", "outdated")
-FAILURE_REASONS = ("", "exit_code", "signal", "timeout", "non_finite", "missing_output", "error_line",
-                   "interrupted", "post_script", "post_processing", "dependency", "config", "expectation",
-                   "stability", "build_failed")
+#: run states and what the store (harness.store.models.Run.State) and the pages call them
+STATE_LABELS = {"not_executed": "not executed", "executed": "executed", "failed": "failed",
+                "post_processed": "post-processed", "consistency_checked": "version-consistency-checked",
+                "outdated": "outdated"}
+STATES = tuple(STATE_LABELS)
+#: why a failed run failed ("": it did not), with the store's labels (harness.store.models.Run.FailureReason)
+FAILURE_LABELS = {"": "none", "exit_code": "non-zero exit code", "signal": "killed by a signal",
+                  "timeout": "timeout", "non_finite": "non-finite values", "missing_output": "missing output",
+                  "error_line": "error line in the log", "interrupted": "interrupted",
+                  "post_script": "post script failed", "post_processing": "post-processing failed",
+                  "dependency": "dependency failed", "config": "invalid configuration",
+                  "expectation": "expectation not met", "stability": "stability check failed",
+                  "build_failed": "build failed"}
+FAILURE_REASONS = tuple(FAILURE_LABELS)
 SERIES_KINDS = ("thermo", "plot", "vtk", "textfile")
 
 

@@ -55,6 +55,21 @@ def problems(entry: dict, at: tuple = ()) -> list[Problem]:
     return found
 
 
+def point_entry(entry: dict, block: str, index: int, name: str, variables: dict) -> dict:
+    """Point ``index`` of the sweep or scaling study (``block``: "sweep" or "scaling") of a run configuration
+    entry: a copy of the entry without the block, named ``name``, with ``variables`` set and each of the block's
+    ``with`` variables at its ``index``-th value (the scaling study's points are made here too,
+    harness.analysis.scaling.expand)."""
+    point = copy.deepcopy(entry)
+    spec = point.pop(block)
+    point["name"] = name
+    values = point.setdefault("variables", {})
+    values.update(variables)
+    for variable, column in spec.get("with", {}).items():
+        values[variable] = column[index]
+    return point
+
+
 def expand(entry: dict) -> list[dict]:
     """The run configuration entries of a sweep: one per value, or ``[entry]`` when there is no sweep."""
     sweep = entry.get("sweep")
@@ -62,13 +77,8 @@ def expand(entry: dict) -> list[dict]:
         return [entry]
     points = []
     for i, value in enumerate(sweep["values"]):
-        point = copy.deepcopy(entry)
-        del point["sweep"]
-        point["name"] = point_name(entry["name"], sweep["variable"], value)
-        variables = point.setdefault("variables", {})
-        variables[sweep["variable"]] = value
-        for name, values in sweep.get("with", {}).items():
-            variables[name] = values[i]
+        point = point_entry(entry, "sweep", i, point_name(entry["name"], sweep["variable"], value),
+                            {sweep["variable"]: value})
         point["sweep_point"] = {"sweep": entry["name"], "variable": sweep["variable"], "value": value,
                                 "spec": sweep}
         points.append(point)

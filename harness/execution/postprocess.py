@@ -142,6 +142,19 @@ def dump_step(path: Path) -> int | None:
     return int(match.group(1)) if match else None
 
 
+def read_vtk_dataset(reader, path: Path, unreadable: str):
+    """What the VTK ``reader`` reads from ``path``: None for a file with no points (a dump written before any
+    particle was inserted), a UserError saying ``unreadable`` for a file it cannot read."""
+    reader.SetFileName(str(path))
+    reader.Update()
+    output = reader.GetOutput()
+    if output is None or output.GetPoints() is None:
+        if output is not None and output.GetNumberOfPoints() == 0:
+            return None
+        raise UserError(unreadable)
+    return output
+
+
 def read_vtk_points(path: Path) -> dict[str, np.ndarray]:
     """Points and point data arrays of a ``.vtp`` (XML PolyData) or legacy ``.vtk`` file."""
     # a heavy library, loaded when this runs, not at every `harness` start
@@ -156,13 +169,9 @@ def read_vtk_points(path: Path) -> dict[str, np.ndarray]:
         reader = vtk.vtkXMLUnstructuredGridReader()
     else:
         reader = vtk.vtkGenericDataObjectReader()
-    reader.SetFileName(str(path))
-    reader.Update()
-    output = reader.GetOutput()
-    if output is None or output.GetPoints() is None:
-        if output is not None and output.GetNumberOfPoints() == 0:
-            return {"points": np.zeros((0, 3))}
-        raise UserError(f"VTK file {path.name!r} could not be read")
+    output = read_vtk_dataset(reader, path, f"VTK file {path.name!r} could not be read")
+    if output is None:
+        return {"points": np.zeros((0, 3))}
     arrays = {"points": vtk_to_numpy(output.GetPoints().GetData()).reshape(-1, 3)}
     point_data = output.GetPointData()
     for i in range(point_data.GetNumberOfArrays()):

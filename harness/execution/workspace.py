@@ -47,6 +47,11 @@ def segment_problem(name) -> str | None:
     return None
 
 
+def _below_home(name: str) -> property:
+    """The path ``home / name`` of a workspace, as a read-only attribute."""
+    return property(lambda self: self.home / name, doc=f"home / {name!r}")
+
+
 @dataclass(frozen=True)
 class Workspace:
     """The folder ``home`` and what lives in it."""
@@ -62,25 +67,11 @@ class Workspace:
         home = os.environ.get("HARNESS_HOME")
         return cls.at(home) if home else cls.at(PROJECT_ROOT / ".harness")
 
-    @property
-    def builds(self) -> Path:
-        return self.home / "builds"
-
-    @property
-    def runs(self) -> Path:
-        return self.home / "runs"
-
-    @property
-    def sweeps(self) -> Path:
-        return self.home / "sweeps"
-
-    @property
-    def locks(self) -> Path:
-        return self.home / "locks"
-
-    @property
-    def database(self) -> Path:
-        return self.home / "harness.sqlite3"
+    builds = _below_home("builds")
+    runs = _below_home("runs")
+    sweeps = _below_home("sweeps")
+    locks = _below_home("locks")
+    database = _below_home("harness.sqlite3")
 
     def roots(self) -> list[Path]:
         """The workspace and where its own folders really are: ``runs/`` or ``builds/`` may be symlinks to

@@ -7,6 +7,7 @@ Artifacts stay on disk in the run folder; the store keeps what lists, plots and 
 from django.conf import settings
 from django.db import models
 
+from harness.config.record import FAILURE_LABELS, STATE_LABELS
 from harness.store.queries import BuildQuerySet, RunQuerySet
 
 
@@ -96,33 +97,18 @@ class TestCase(models.Model):
         return self.path
 
 
+def _choices(name: str, labels: dict) -> type[models.TextChoices]:
+    """Django choices of a ``{value: label}`` table, each member named by its value in upper case."""
+    return models.TextChoices(name, [(value.upper() or "NONE", (value, label)) for value, label in labels.items()])
+
+
 class Run(models.Model):
     """One execution of one run configuration by one build on one machine."""
 
-    class State(models.TextChoices):
-        NOT_EXECUTED = "not_executed", "not executed"
-        EXECUTED = "executed", "executed"
-        FAILED = "failed", "failed"
-        POST_PROCESSED = "post_processed", "post-processed"
-        CONSISTENCY_CHECKED = "consistency_checked", "version-consistency-checked"
-        OUTDATED = "outdated", "outdated"
-
-    class FailureReason(models.TextChoices):
-        NONE = "", "none"
-        EXIT_CODE = "exit_code", "non-zero exit code"
-        SIGNAL = "signal", "killed by a signal"
-        TIMEOUT = "timeout", "timeout"
-        NON_FINITE = "non_finite", "non-finite values"
-        MISSING_OUTPUT = "missing_output", "missing output"
-        ERROR_LINE = "error_line", "error line in the log"
-        INTERRUPTED = "interrupted", "interrupted"
-        POST_SCRIPT = "post_script", "post script failed"
-        POST_PROCESSING = "post_processing", "post-processing failed"
-        DEPENDENCY = "dependency", "dependency failed"
-        CONFIG = "config", "invalid configuration"
-        EXPECTATION = "expectation", "expectation not met"
-        STABILITY = "stability", "stability check failed"
-        BUILD_FAILED = "build_failed", "build failed"
+    #: the record's states and failure reasons (harness.config.record), members named by their upper-case
+    #: value (Run.State.FAILED; the empty reason is Run.FailureReason.NONE)
+    State = _choices("State", STATE_LABELS)
+    FailureReason = _choices("FailureReason", FAILURE_LABELS)
 
     class Consistency(models.TextChoices):
         NOT_CHECKED = "", "not checked"

@@ -1,5 +1,11 @@
 """Template helpers: the success bar of a folder (thesis 4.6.1) and small formatting filters."""
 from django import template
+from django.conf import settings
+
+from harness.report.glossary import ALL, define
+from webfrontend.presentation import TIMING_CATEGORIES
+from webfrontend.presentation import provenance as facts
+from webfrontend.presentation import speed_change as change
 
 register = template.Library()
 
@@ -62,7 +68,6 @@ def c_value(value):
 
 @register.simple_tag
 def timing_categories():
-    from webfrontend.presentation import TIMING_CATEGORIES
     return TIMING_CATEGORIES
 
 
@@ -75,8 +80,6 @@ def num(value):
 @register.inclusion_tag("webfrontend/parts/provenance.html")
 def provenance(run, reference=True):
     """Short commit of the run's build, its test case content hash and the reference run's commit."""
-    from webfrontend.presentation import provenance as facts
-
     return {**facts(run), "show_reference": reference}
 
 
@@ -91,16 +94,12 @@ def query_with(context, **changes):
 
 @register.simple_tag
 def compare_limit():
-    from django.conf import settings
-
     return settings.DASHBOARD_COMPARE_LIMIT
 
 
 @register.filter
 def speed_change(speed):
     """'+12 %' (slower) or '-8 %' (faster) of a stepping-time change (harness.store.queries.stepping_changes)."""
-    from webfrontend.presentation import speed_change as change
-
     return change(speed["ratio"], speed.get("noise") or 0.0)
 
 
@@ -116,8 +115,6 @@ def verdict_label(value):
 @register.simple_tag
 def glossary(term):
     """The glossary's sentence for ``term`` (harness.report.glossary, docs/glossary.md), for a tooltip."""
-    from harness.report.glossary import define
-
     return define(term)
 
 
@@ -134,6 +131,4 @@ def level_label(value):
 @register.filter
 def defined(term):
     """The glossary's sentence for ``term``, or '' for a word it lacks (for tooltips on stored values)."""
-    from harness.report.glossary import ALL
-
     return ALL.get(str(term), "")

@@ -1,6 +1,8 @@
 """Template tags of the efficiency pages (webfrontend/efficiency.py) used inside other pages."""
 from django import template
 
+from webfrontend.efficiency import breakdown_context
+
 register = template.Library()
 
 
@@ -8,8 +10,6 @@ register = template.Library()
 def breakdown_table(runs):
     """The timing breakdown of a run (or of compared runs, side by side): sections with min/avg/max over ranks,
     load imbalance, and links to the flame graphs."""
-    from webfrontend.efficiency import breakdown_context
-
     return breakdown_context(runs if isinstance(runs, (list, tuple)) else [runs])
 
 
