@@ -6,7 +6,9 @@ import pytest
 from scipy.integrate import quad
 from scipy.special import ellipj
 
-from conftest import domain, gravity, interaction, material, model, plane, printer, read_csv, run, timestep
+# at module level: inside a test, "conftest" is whichever folder's conftest the session imported last
+from conftest import (domain, engine_program, gravity, interaction, material, model, plane, printer, read_csv, run,
+                      timestep)
 from engine import clumps
 from engine.kernels import Combination, generate_source
 
@@ -292,8 +294,6 @@ def test_clump_of_an_unknown_template_is_bad_input(engine_run):
 @pytest.mark.slow
 def test_clump_pile_is_bitwise_the_same_on_one_and_two_threads(tmp_path):
     """The body pass is serial and the pair loop's skip writes the pair's row: thermo bytes equal."""
-    from conftest import engine_program
-
     scene = _pile(count=40, steps=3000)
     rows = []
     for threads in ("1", "2"):

@@ -3,6 +3,8 @@ import dataclasses
 import math
 
 import numpy as np
+# at module level: inside a test, "conftest" is whichever folder's conftest the session imported last
+from conftest import REPO
 
 from engine import contact_laws as cl
 from engine import kernels, models
@@ -93,8 +95,6 @@ def test_a_new_kind_of_submodel_is_one_row_plus_its_law(tmp_path):
     import subprocess
     import sys
     import textwrap
-
-    from conftest import REPO
 
     script = textwrap.dedent('''
         from engine import models, contact_laws as cl
