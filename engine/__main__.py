@@ -100,6 +100,8 @@ def run(script: str, log_path: str | None, variables: dict, threads: int | None 
     where = script  # the command being executed, for messages of unexpected failures
     try:
         log = Log(log_path, echo=echo)
+        # imported once the log is open (a broken build is reported there), and numba only after
+        # threads.configure has set NUMBA_NUM_THREADS
         from . import threads as thread_pool
 
         thread_pool.configure(threads)
@@ -130,7 +132,7 @@ def run(script: str, log_path: str | None, variables: dict, threads: int | None 
         if sim is not None:
             sim.close()
             try:
-                from .writers import write_timing
+                from .writers import write_timing  # as the imports of run(): after the log
 
                 write_timing("timing.json", sim.timing_record())
             except RunFailure as exc:

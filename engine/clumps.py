@@ -30,6 +30,8 @@ from collections import namedtuple
 
 import numpy as np
 
+from . import particle_set
+from . import state as particle_state
 from .jit import njit
 
 #: per body (rows) and per particle id (member_body, member_offset); passed whole to compiled code
@@ -474,8 +476,6 @@ def add_bodies(sim, template: Template, positions, quaternions, velocity, omega,
     """Clumps of a template with centres of mass at positions (m, k x 3), orientations (template frame ->
     space, k x 4), one velocity (m/s) and angular velocity (rad/s, space frame). mid_run: inserted at a stop
     of a run (engine/particle_set.py keeps the neighbor list), else created before a run."""
-    from . import particle_set
-    from . import state as particle_state
 
     if sim.bodies is None:
         sim.bodies = empty_bodies(sim.next_id)

@@ -24,6 +24,8 @@ import sys
 from collections import namedtuple
 from dataclasses import field, make_dataclass
 
+import numpy as np
+
 from . import clumps
 from .contact_laws import slip_velocity
 from .jit import cache_dir
@@ -653,7 +655,6 @@ def parameter_table(c: Combination, materials: dict, interactions: dict, ntypes:
     Pairs without an interaction keep NaN in the columns that need one, so using one by mistake shows up as
     non-finite values.
     """
-    import numpy as np
 
     columns = c.parameter_columns()
     pp = np.full((ntypes, ntypes, len(columns)), np.nan)

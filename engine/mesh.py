@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import re
+import struct
 from collections import namedtuple
 from pathlib import Path
 
@@ -86,7 +87,7 @@ def read_stl(path: str) -> np.ndarray:
     data = reader.GetOutput()
     if reader.GetErrorCode() or data is None or data.GetNumberOfPolys() == 0:
         raise MeshError(f"file '{path}' is not an STL file with triangles")
-    from vtk.util.numpy_support import vtk_to_numpy
+    from vtk.util.numpy_support import vtk_to_numpy  # vtk loads in seconds: only scenes with STL walls
 
     points = vtk_to_numpy(data.GetPoints().GetData()).astype(np.float64)
     polys = data.GetPolys()
@@ -109,8 +110,6 @@ def _stl_layout(file: Path, path: str) -> int | None:
     Binary STL: an 80-byte header, a little-endian uint32 count, then 50 bytes per triangle; a file shorter
     than 84 + 50 count bytes is cut (inside a triangle or after one). ASCII STL (starts with ``solid``, text
     only): every ``facet`` needs its ``endfacet``, and the file its ``endsolid``."""
-    import struct
-
     try:
         with open(file, "rb") as handle:
             data = handle.read()

@@ -131,7 +131,7 @@ class RestartWriter(_Periodic):
 
     def output(self, sim, start: bool):
         if not start:
-            from .restart import write_restart
+            from .restart import write_restart  # engine/restart.py imports this module
 
             write_restart(sim, self.file.replace("{step}", str(sim.step)))
 

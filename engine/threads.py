@@ -38,6 +38,7 @@ def configure(requested: int | None):
 
 def pool_size() -> int:
     """Threads Numba can use in this process (NUMBA_NUM_THREADS, fixed when Numba was imported)."""
+    # numba is imported on use: it reads NUMBA_NUM_THREADS once, so not before configure() has set it
     from numba import config
 
     return int(config.NUMBA_NUM_THREADS)
@@ -45,7 +46,7 @@ def pool_size() -> int:
 
 def use(particles: int, wanted: int) -> int:
     """Set the threads of the next compiled calls for a scene of `particles`; returns the count used."""
-    import numba
+    import numba  # on use, after configure() (see pool_size)
 
     try:
         below = int(os.environ.get("DEM_SERIAL_BELOW", SERIAL_BELOW))
@@ -61,7 +62,7 @@ def use(particles: int, wanted: int) -> int:
 
 def layer() -> str:
     """The threading layer in use ('unknown' before the first parallel call)."""
-    import numba
+    import numba  # on use, after configure() (see pool_size)
 
     try:
         return numba.threading_layer()
