@@ -576,26 +576,25 @@ def body_selection(sim, mask) -> np.ndarray:
     return picked & _present(sim)
 
 
-def kinetic_energy(sim, mask=slice(None)) -> float:
-    """J: 1/2 m v^2 of the free spheres selected plus 1/2 M V^2 of the bodies selected."""
+def _selected(sim, mask):
+    """(state, free spheres selected, bodies, bodies selected): what an energy of the selection sums over."""
     s = sim.state
     keep = np.zeros(len(s.pid), dtype=bool)
     keep[mask] = True
     keep &= free(sim)
-    b = sim.bodies
-    pick = body_selection(sim, mask)
+    return s, keep, sim.bodies, body_selection(sim, mask)
+
+
+def kinetic_energy(sim, mask=slice(None)) -> float:
+    """J: 1/2 m v^2 of the free spheres selected plus 1/2 M V^2 of the bodies selected."""
+    s, keep, b, pick = _selected(sim, mask)
     return float(0.5 * np.sum(s.mass[keep] * np.einsum("ij,ij->i", s.v[keep], s.v[keep]))
                  + 0.5 * np.sum(b.mass[pick] * np.einsum("ij,ij->i", b.v[pick], b.v[pick])))
 
 
 def rotational_energy(sim, mask=slice(None)) -> float:
     """J: 0.2 m r^2 w^2 of the free spheres selected plus 1/2 L.w of the bodies selected."""
-    s = sim.state
-    keep = np.zeros(len(s.pid), dtype=bool)
-    keep[mask] = True
-    keep &= free(sim)
-    b = sim.bodies
-    pick = body_selection(sim, mask)
+    s, keep, b, pick = _selected(sim, mask)
     return float(0.2 * np.sum(s.mass[keep] * s.radius[keep] ** 2 * np.einsum("ij,ij->i", s.omega[keep],
                                                                                s.omega[keep]))
                  + 0.5 * np.sum(np.einsum("ij,ij->i", b.angmom[pick], b.omega[pick])))
