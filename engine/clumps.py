@@ -33,6 +33,7 @@ import numpy as np
 from . import particle_set
 from . import state as particle_state
 from .jit import njit
+from .neighbor import tally_overlap
 
 #: per body (rows) and per particle id (member_body, member_offset); passed whole to compiled code
 Bodies = namedtuple("Bodies", ["x", "v", "q", "angmom", "omega", "inertia", "mass", "force", "torque", "members",
@@ -419,13 +420,9 @@ def overlap_statistics(x, radius, pid, member_body, nbr_start, nbr_j, ratio_limi
             dx = x[i, 0] - x[j, 0]
             dy = x[i, 1] - x[j, 1]
             dz = x[i, 2] - x[j, 2]
-            overlap = radius[i] + radius[j] - np.sqrt(dx * dx + dy * dy + dz * dz)
-            if overlap > 0.0:
-                n_contacts += 1
-                ratio = overlap / min(radius[i], radius[j])
-                worst = max(worst, ratio)
-                if ratio > ratio_limit:
-                    n_large += 1
+            n_contacts, n_large, worst = tally_overlap(
+                radius[i] + radius[j] - np.sqrt(dx * dx + dy * dy + dz * dz), min(radius[i], radius[j]),
+                ratio_limit, n_contacts, n_large, worst)
     return n_contacts, n_large, worst
 
 

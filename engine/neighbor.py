@@ -388,6 +388,18 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer):
 
 
 @njit(cache=True, error_model="numpy")
+def tally_overlap(overlap, smaller_radius, ratio_limit, n_contacts, n_large, worst):
+    """One pair's overlap (m) added to the (contacts, contacts above ratio_limit, largest ratio) so far."""
+    if overlap > 0.0:
+        n_contacts += 1
+        ratio = overlap / smaller_radius
+        worst = max(worst, ratio)
+        if ratio > ratio_limit:
+            n_large += 1
+    return n_contacts, n_large, worst
+
+
+@njit(cache=True, error_model="numpy")
 def overlap_statistics(x, radius, nbr_start, nbr_j, lo, hi, periodic, ratio_limit):
     """(number of contacts, contacts with overlap > ratio_limit * smaller radius, max overlap / smaller radius)."""
     box = hi - lo
@@ -403,11 +415,6 @@ def overlap_statistics(x, radius, nbr_start, nbr_j, lo, hi, periodic, ratio_limi
                 if periodic[a]:
                     d[a] -= box[a] * np.rint(d[a] / box[a])
             r = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-            overlap = radius[i] + radius[j] - r
-            if overlap > 0.0:
-                n_contacts += 1
-                ratio = overlap / min(radius[i], radius[j])
-                worst = max(worst, ratio)
-                if ratio > ratio_limit:
-                    n_large += 1
+            n_contacts, n_large, worst = tally_overlap(radius[i] + radius[j] - r, min(radius[i], radius[j]),
+                                                       ratio_limit, n_contacts, n_large, worst)
     return n_contacts, n_large, worst
