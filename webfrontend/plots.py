@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 
 from harness.analysis.consistency import AXIS_COLUMNS, axis_asked
+from harness.config.acceptance import applies
 from harness.config.sweep import observed_order
 
 #: units of the thermo quantities every test case writes (thesis 4.4.1) and common abscissae;
@@ -243,13 +244,16 @@ def difference_plot(curves: list[tuple[str, object]], quantity: str) -> dict | N
                 f"difference of {quantity}" + (f" [{unit}]" if unit else ""), x, series)
 
 
-def expectation_overlays(config: dict, series_name: str, column: str) -> list[dict]:
+def expectation_overlays(config: dict, series_name: str, column: str, engine: str | None = None) -> list[dict]:
     """Lines of the run configuration's expectations on ``SERIES.COLUMN`` (harness/config/acceptance.py): the
     expected value with its tolerance band, or the lower/upper bounds. The bounds apply to the reduced
-    value (``at``: end, start, min, max, mean), which the legend names."""
+    value (``at``: end, start, min, max, mean), which the legend names. Only the expectations that hold for
+    the run's engine adapter ``engine`` (``acceptance.applies``; None: all)."""
     out = []
     for spec in (config or {}).get("expectations") or []:
         if not isinstance(spec, dict) or spec.get("quantity") != f"{series_name}.{column}":
+            continue
+        if not applies(spec, engine):
             continue
         at = spec.get("at", "end")
         try:

@@ -175,6 +175,12 @@ def text_diffs(run_a, texts_a: dict, run_b, texts_b: dict) -> list[dict]:
     return out
 
 
+def engine_of(run) -> str | None:
+    """The engine adapter of a run's target (its ``engine``: ``dem``, ``yade``, ``generic:FILE``), the name the
+    harness evaluates the run's expectations with (harness/execution/execute.py); None when not recorded."""
+    return (run.target.definition or {}).get("engine") or None
+
+
 def run_plots(run, series, reference=None, reference_series=()) -> list[dict]:
     """Plots of a run page: every thermo/VTK quantity and every declared plot (thesis fig. 4.4), declared
     plots first, with the run configuration's expectations on the quantities they bound.
@@ -201,7 +207,7 @@ def run_plots(run, series, reference=None, reference_series=()) -> list[dict]:
                 out.append(plots.series_plot(curves, None))
             continue
         for quantity in plots.quantities(s, consistency):
-            overlays = plots.expectation_overlays(run.config, s.name, quantity)
+            overlays = plots.expectation_overlays(run.config, s.name, quantity, engine_of(run))
             scored = results.get((s.kind, s.name, quantity))
             if ref is not None and scored is not None and scored.value is not None:
                 drawn = plots.consistency_plots(scored, s, ref, label, ref_label)[0]

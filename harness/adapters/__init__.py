@@ -80,3 +80,21 @@ def get_adapter(name: str) -> EngineAdapter:
         return cls()
     hint = " (the generic adapter is named generic:FILE, FILE its JSON configuration)" if name == "generic" else ""
     raise UserError(f"unknown engine adapter {name!r} (known: {', '.join(known_adapters())}){hint}")
+
+
+def adapter_of_run(folder) -> EngineAdapter:
+    """The built-in adapter whose log file a run folder holds (``log.dem``, ``log.liggghts``, ``log.lammps``,
+    ``log.yade``): how a post script that serves several codes reads the run of the one that wrote it.
+    UserError when the folder holds none of them."""
+    from pathlib import Path
+
+    _load_builtins()
+    folder = Path(folder)
+    for name, cls in _ADAPTERS.items():
+        if name == "generic":
+            continue
+        adapter = cls()
+        if (folder / adapter.log_file()).is_file():
+            return adapter
+    logs = ", ".join(cls().log_file() for name, cls in _ADAPTERS.items() if name != "generic")
+    raise UserError(f"{folder}: no engine log ({logs}): not a run folder of a built-in engine")

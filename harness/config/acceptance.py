@@ -11,6 +11,7 @@ textfile, each a pandas DataFrame):
 ``quantity`` is ``SERIES.COLUMN`` (``thermo.ke``), or a sum of such terms (``thermo.ke + thermo.rke``).
 ``at`` reduces the column to one number: ``end`` (default), ``start``, ``min``, ``max``, ``mean``.
 The bound is ``value`` with ``rel_tol`` (fraction of |value|) and/or ``abs_tol``, or ``lower``/``upper``.
+``engines`` (a list of adapter names) restricts it to the runs of targets with those engine adapters.
 
 ``stability``: checks that hard cases stay numerically stable::
 
@@ -275,14 +276,22 @@ _STABILITY = {
 }
 
 
-def evaluate(entry: dict, data: dict, folder: Path | None = None) -> list[Verdict]:
+def applies(spec: dict, engine: str | None) -> bool:
+    """Whether an expectation holds for a run of the engine adapter ``engine`` (its ``engines``, default all;
+    None: the engine is not known, every expectation applies)."""
+    engines = spec.get("engines")
+    return engine is None or engines is None or engine in engines
+
+
+def evaluate(entry: dict, data: dict, folder: Path | None = None, engine: str | None = None) -> list[Verdict]:
     """Evaluate every expectation and stability check of a run configuration entry.
 
     ``data`` maps series names (``thermo`` and the declared series/textfiles) to DataFrames whose first column
     is the abscissa. ``folder`` is the run folder (unused by the built-in checks, kept for checks that read
-    artifacts). Returns one Verdict per check; a run fails when any verdict is not ok.
+    artifacts). ``engine`` is the adapter name of the run's target: an expectation whose ``engines`` leave it
+    out is not evaluated. Returns one Verdict per check; a run fails when any verdict is not ok.
     """
-    verdicts = [_check_expectation(spec, data) for spec in entry.get("expectations", [])]
+    verdicts = [_check_expectation(spec, data) for spec in entry.get("expectations", []) if applies(spec, engine)]
     stability = stability_of(entry)
     if stability.get("finite") and data:
         verdicts.append(_check_finite(data))

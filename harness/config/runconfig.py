@@ -130,6 +130,9 @@ class Expectation(FileModel):
     """a bound instead of ``value``"""
     name: str | None = None
     """how the result is named in reports (default: ``QUANTITY (AT)``)"""
+    engines: Annotated[list[str], Says(what="a list of engine adapter names", item="a string")] | None = None
+    """the engine adapters of the targets it holds for (``["dem", "liggghts"]``); default: every one. For a
+    statement about a model that some codes compute differently by design (docs/shapes.md)"""
 
 
 class ParticleCount(FileModel):

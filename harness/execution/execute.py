@@ -454,7 +454,7 @@ def postprocess_run(spec: RunSpec, folder: Path, record: RunSpec, adapter) -> No
     except ImportError:
         acceptance = None
     if acceptance is not None:  # the default stability checks apply to every run (harness.config.acceptance)
-        verdicts = acceptance.evaluate(config, frames, folder)
+        verdicts = acceptance.evaluate(config, frames, folder, engine=adapter.name)
         record.verdicts = [{"ok": bool(v.ok), "reason": v.reason, "message": v.message} for v in verdicts]
         bad = [v for v in verdicts if not v.ok]
         if bad:

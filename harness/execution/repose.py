@@ -41,11 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.adapters import get_adapter
+from harness.adapters import adapter_of_run
 from harness.execution.postprocess import dump_step, read_vtk_points
-
-#: a run folder holding this file was written by LIGGGHTS, else by the bundled engine
-LIGGGHTS_LOG = "log.liggghts"
 
 
 def surface_angle(points: np.ndarray, guess_deg: float, diameter: float) -> float:
@@ -92,7 +89,7 @@ def measure(folder: Path | str = ".", *, timestep: float, diameter: float, t_ste
     (deg) with their standard deviations over the rows and the dumps of the steady part.
     """
     folder = Path(folder)
-    adapter = get_adapter("liggghts" if (folder / LIGGGHTS_LOG).is_file() else "dem")
+    adapter = adapter_of_run(folder)
     thermo = adapter.read_thermo(folder)
     time = thermo["step"].to_numpy() * timestep
     com_x = thermo["com_x"].to_numpy()

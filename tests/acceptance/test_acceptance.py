@@ -36,6 +36,23 @@ def test_expectation_within_relative_tolerance_passes_and_outside_fails():
     assert "restitution.e" in verdict.message and "0.905" in verdict.message and "0.8991" in verdict.message
 
 
+def test_an_expectation_holds_for_the_engines_it_names():
+    # one run configuration for several codes: the rebound of a clump damped with its member's mass (YADE)
+    # and with the clump's mass (the engine, LIGGGHTS) are each stated for their codes (testcases/shapes)
+    data = {"bounce": pd.DataFrame({"step": [0, 1], "ke": [1.3e-3, 3.96e-4]})}
+    entry = {"expectations": [
+        {"quantity": "bounce.ke", "value": 1.7536e-4, "rel_tol": 0.001, "engines": ["dem", "liggghts"]},
+        {"quantity": "bounce.ke", "value": 3.96e-4, "rel_tol": 0.001, "engines": ["yade"]}]}
+    assert not validate(entry)
+    assert not failed(evaluate(entry, data, engine="yade"))
+    (verdict,) = failed(evaluate(entry, data, engine="dem"))
+    assert "1.7536e-04" in verdict.message or "0.00017536" in verdict.message
+    assert len(evaluate(entry, data, engine="lammps")) == len(evaluate({}, data))   # none of its engines
+    assert len(failed(evaluate(entry, data))) == 1                                   # engine unknown: all
+    assert validate({"expectations": [{"quantity": "bounce.ke", "upper": 1, "engines": "yade"}]}) == [
+        "expectations[0].engines: must be a list of engine adapter names, got string \"yade\""]
+
+
 @pytest.mark.parametrize("at,expected", [("end", 3.0), ("start", 1.0), ("min", 0.5), ("max", 4.0), ("mean", 2.125)])
 def test_reductions(at, expected):
     data = {"thermo": thermo(ke=[1.0, 4.0, 0.5, 3.0])}

@@ -47,6 +47,7 @@ def bed_run(folder, angles_deg: list[float], every: int = 5000) -> None:
     """A run folder of the bundled engine: one thermo row and one dump per angle, ``every`` steps apart; ke of
     row k is k (J), rke 2k."""
     (folder / "post").mkdir()
+    (folder / "log.dem").write_text("")
     rows = ["step,time,atoms,ke,rke,com_x,com_z"]
     for k, angle in enumerate(angles_deg):
         points = segment_bed(angle, depth=0.01)

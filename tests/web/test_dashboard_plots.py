@@ -82,6 +82,10 @@ def test_expectations_are_drawn_with_their_tolerance():
     assert labels(spec)[1:] == ["expected end - tolerance", "expected end + tolerance", "upper bound (max)"]
     assert [s["values"][0] for s in spec["series"][1:]] == [1.8, 2.2, 3.0]
     assert spec["bands"] == [{"upper": 2, "lower": 1, "fill": overlays[0]["fill"]}]
+    # an expectation stated for other engines is not drawn on this run's plot
+    config["expectations"][0]["engines"] = ["yade"]
+    assert len(plots.expectation_overlays(config, "thermo", "ke", "dem")) == 1
+    assert len(plots.expectation_overlays(config, "thermo", "ke", "yade")) == 2
 
 
 def test_bands_are_the_thesis_levels_and_agree_with_the_check():

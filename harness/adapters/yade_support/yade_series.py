@@ -13,8 +13,10 @@ Files (in the working directory, the harness' run folder):
 
 ``thermo.csv``
     ``step,time,atoms,ke,rke`` (+ columns of ``Thermo(extra={name: function})``), a row every ``every``
-    iterations from step 0. atoms = dynamic spheres; ke = sum 1/2 m |v|^2 (J); rke = sum 1/2 I_k w_k^2 (J,
-    principal inertia ``state.inertia``; 2/5 m r^2 for a sphere).
+    iterations from step 0. atoms = dynamic spheres, free or members of a clump; ke and rke are summed over
+    the bodies, each free sphere and each clump once (its members are not bodies of their own, as in the
+    bundled engine and LIGGGHTS' ke/multisphere): ke = sum 1/2 m |v|^2 (J); rke = sum 1/2 I_k w_k^2 (J,
+    principal inertia ``state.inertia``; 2/5 m r^2 for a sphere) = 1/2 L.w for a clump.
 ``timing.json``
     seconds: ``total`` (wall time of the iterations), and with ``O.timingEnabled`` (the default of ``run``)
     the engines' ``execTime`` summed as pair (InteractionLoop), neigh (collider), modify (NewtonIntegrator),
@@ -24,7 +26,11 @@ Velocities at full steps. YADE's NewtonIntegrator is a leap-frog: a body's ``sta
 while the forces F(t) of the positions x(t) are computed (YADE docs, "Motion integration"). The sampler runs
 after InteractionLoop and before NewtonIntegrator and reports the velocity-Verlet full-step value the codes
 it is compared with print, v(t) = v(t - dt/2) + dt/2 (F(t)/m + g), w(t) = w(t - dt/2) + dt/2 T(t)/I, at step
-``O.iter`` (t = O.iter dt). With NewtonIntegrator.damping != 0 this shift leaves YADE's damping out.
+``O.iter`` (t = O.iter dt). A clump's force and torque are its members' summed onto its centre of mass (what
+NewtonIntegrator does before it moves the clump: F = sum f_i, T = sum t_i + (x_i - X) x f_i, plus what
+acts on the clump body itself); an aspherical clump (unequal principal moments) is integrated through its
+angular momentum ``state.angMom`` = L(t - dt/2), so L(t) = L(t - dt/2) + dt/2 T(t) and w(t) = R I^-1 R^T L(t)
+with R the rotation of ``state.ori``. With NewtonIntegrator.damping != 0 this shift leaves YADE's damping out.
 Because the sample of step N is taken inside iteration N + 1, ``run(N)`` runs N + 1 iterations (the last
 one's integration is not sampled).
 """
@@ -94,7 +100,7 @@ class Thermo:
     def sample(self):
         """Write the row of step ``O.iter`` (see the module docstring for the full-step velocities)."""
         # YADE's modules exist only inside a YADE process (and the script's own __main__)
-        from yade.wrapper import Omega, NewtonIntegrator, Sphere
+        from yade.wrapper import Omega, NewtonIntegrator
 
         O = Omega()
         step = O.iter
@@ -105,20 +111,21 @@ class Thermo:
         for engine in O.engines:
             if isinstance(engine, NewtonIntegrator):
                 gravity = tuple(engine.gravity)
-        atoms, ke, rke = 0, 0.0, 0.0
-        for body in O.bodies:
-            if body is None or not body.dynamic or not isinstance(body.shape, Sphere):
-                continue
+        atoms, ke, rke = count_spheres(O), 0.0, 0.0
+        for body in bodies(O):
             state = body.state
             m = state.mass
-            # sync=True: with several OpenMP threads the per-thread forces are summed only before NewtonIntegrator
-            force, torque = O.forces.f(body.id, True), O.forces.t(body.id, True)
+            force, torque = body_force(O, body)
             inertia = state.inertia
             v = [state.vel[k] + 0.5 * dt * (force[k] / m + gravity[k]) for k in range(3)]
+            ke += 0.5 * m * (v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
+            if body.isClump and max(inertia) > min(inertia):
+                # YADE's exactAsphericalRot: the angular momentum is the leap-frog's variable
+                momentum = [state.angMom[k] + 0.5 * dt * torque[k] for k in range(3)]
+                rke += 0.5 * _dot(momentum, _angular_velocity(state.ori, inertia, momentum))
+                continue
             w = [state.angVel[k] + 0.5 * dt * torque[k] / inertia[k] if inertia[k] > 0 else state.angVel[k]
                  for k in range(3)]
-            atoms += 1
-            ke += 0.5 * m * (v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
             rke += 0.5 * (inertia[0] * w[0] ** 2 + inertia[1] * w[1] ** 2 + inertia[2] * w[2] ** 2)
         row = [step, step * dt, atoms, ke, rke] + [function() for function in self.extra.values()]
         self.handle.write(",".join(repr(float(x)) if isinstance(x, float) else str(x) for x in row) + "\n")
@@ -127,6 +134,59 @@ class Thermo:
     def close(self):
         self.handle.flush()
         self.handle.close()
+
+
+def bodies(O):
+    """The dynamic bodies: free spheres and clumps (a clump once, its members not)."""
+    # YADE's modules exist only inside a YADE process (and the script's own __main__)
+    from yade.wrapper import Sphere
+
+    for body in O.bodies:
+        if body is None or not body.dynamic or body.isClumpMember:
+            continue
+        if body.isClump or isinstance(body.shape, Sphere):
+            yield body
+
+
+def count_spheres(O):
+    """Dynamic spheres, free or members of a clump (the particles the other codes count as atoms)."""
+    from yade.wrapper import Sphere
+
+    return sum(1 for body in O.bodies
+               if body is not None and isinstance(body.shape, Sphere)
+               and (body.dynamic or (body.isClumpMember and O.bodies[body.clumpId].dynamic)))
+
+
+def body_force(O, body):
+    """(force, torque) on a body at this step, as lists (N, N m): a clump's own plus its members' summed onto
+    its centre of mass, T = sum t_i + (x_i - X) x f_i (YADE's Clump::addForceTorqueFromMembers)."""
+    # sync=True: with several OpenMP threads the per-thread forces are summed only before NewtonIntegrator
+    force, torque = list(O.forces.f(body.id, True)), list(O.forces.t(body.id, True))
+    if body.isClump:
+        centre = body.state.pos
+        for member in body.shape.members.keys():
+            f, t = O.forces.f(member, True), O.forces.t(member, True)
+            arm = O.bodies[member].state.pos - centre
+            moment = arm.cross(f)
+            for k in range(3):
+                force[k] += f[k]
+                torque[k] += t[k] + moment[k]
+    return force, torque
+
+
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _angular_velocity(orientation, inertia, momentum):
+    """w = R I^-1 R^T L (rad/s, space frame) for the principal moments ``inertia`` of the body frame that the
+    quaternion ``orientation`` turns into the space frame, and the angular momentum L (space frame)."""
+    # YADE's modules exist only inside a YADE process (and the script's own __main__)
+    from yade.minieigenHP import Vector3
+
+    body_frame = orientation.conjugate().Rotate(Vector3(*momentum))
+    local = Vector3(*[body_frame[k] / inertia[k] if inertia[k] > 0 else 0.0 for k in range(3)])
+    return list(orientation.Rotate(local))
 
 
 def start_at_full_step():
@@ -155,17 +215,18 @@ def write_final_state(file="thermo.csv"):
     YADE holds them (leap-frog: v(t - dt/2) after the last step); the row says so in column ``source``.
     """
     # YADE's modules exist only inside a YADE process (and the script's own __main__)
-    from yade.wrapper import Omega, Sphere
+    from yade.wrapper import Omega
 
     O = Omega()
-    atoms, ke, rke = 0, 0.0, 0.0
-    for body in O.bodies:
-        if body is None or not body.dynamic or not isinstance(body.shape, Sphere):
-            continue
+    atoms, ke, rke = count_spheres(O), 0.0, 0.0
+    for body in bodies(O):
         state = body.state
-        atoms += 1
         ke += 0.5 * state.mass * state.vel.squaredNorm()
-        rke += 0.5 * sum(state.inertia[k] * state.angVel[k] ** 2 for k in range(3))
+        if body.isClump and max(state.inertia) > min(state.inertia):
+            momentum = list(state.angMom)
+            rke += 0.5 * _dot(momentum, _angular_velocity(state.ori, state.inertia, momentum))
+        else:
+            rke += 0.5 * sum(state.inertia[k] * state.angVel[k] ** 2 for k in range(3))
     with open(file, "w", encoding="utf-8") as handle:
         handle.write("step,time,atoms,ke,rke,source\n")
         handle.write(f"{O.iter},{float(O.time)!r},{atoms},{float(ke)!r},{float(rke)!r},final_state\n")

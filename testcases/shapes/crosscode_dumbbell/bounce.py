@@ -1,19 +1,19 @@
 #!/usr/bin/env python3
 """The dumbbell's translational and rotational energy (J) from step 500 on, in either code: post/bounce.csv.
 
-LIGGGHTS inserts the body at step 1 (its step-0 row has no particle), so the rows both codes have are those
+LIGGGHTS inserts the body at step 1 (its step-0 row has no particle), so the rows every code has are those
 from the first thermo step on. Energies: the engine's thermo ke and rke are its bodies' (engine/clumps.py);
-LIGGGHTS' are compute ke/multisphere (column kems: the adapter drops the c_) and erotate/multisphere (rke).
+LIGGGHTS' are compute ke/multisphere (column kems: the adapter drops the c_) and erotate/multisphere (rke);
+YADE's those of its bodies, each clump once (harness/adapters/yade_support/yade_series.py).
 """
 import csv
 from pathlib import Path
 
-from harness.adapters import get_adapter
+from harness.adapters import adapter_of_run
 
-here = Path(".")
-code = "liggghts" if (here / "log.liggghts").is_file() else "dem"
-thermo = get_adapter(code).read_thermo(here)
-ke = thermo["kems"] if code == "liggghts" else thermo["ke"]
+adapter = adapter_of_run(".")
+thermo = adapter.read_thermo(".")
+ke = thermo["kems"] if adapter.name == "liggghts" else thermo["ke"]
 rke = thermo["rke"]
 Path("post").mkdir(exist_ok=True)
 with open("post/bounce.csv", "w", newline="") as handle:

@@ -2,20 +2,20 @@
 """Energies (J) and centre-of-mass height (m) of the settling pile from step 1000 on, in either code:
 post/pile.csv (step, ke, rke, com_z).
 
-LIGGGHTS inserts the bodies at step 1 (its step-0 row has none), so the rows both codes have start at the
+LIGGGHTS inserts the bodies at step 1 (its step-0 row has none), so the rows every code has start at the
 first thermo step. The engine's ke, rke and com_z are its bodies' (engine/clumps.py); LIGGGHTS' are
 compute ke/multisphere (column kems), erotate/multisphere (rke) and xcm(all,z) of the member spheres (for
-spheres that do not overlap, the bodies' centre of mass).
+spheres that do not overlap, the bodies' centre of mass); YADE's those of its bodies, each clump once
+(scene.py, harness/adapters/yade_support/yade_series.py).
 """
 import csv
 from pathlib import Path
 
-from harness.adapters import get_adapter
+from harness.adapters import adapter_of_run
 
-here = Path(".")
-code = "liggghts" if (here / "log.liggghts").is_file() else "dem"
-thermo = get_adapter(code).read_thermo(here)
-ke = thermo["kems"] if code == "liggghts" else thermo["ke"]
+adapter = adapter_of_run(".")
+thermo = adapter.read_thermo(".")
+ke = thermo["kems"] if adapter.name == "liggghts" else thermo["ke"]
 Path("post").mkdir(exist_ok=True)
 with open("post/pile.csv", "w", newline="") as handle:
     out = csv.writer(handle)
