@@ -26,7 +26,7 @@ bottom moves towards -x and the bed climbs on the -x side.
 Files written (in the run folder):
 
 - ``angle.txt``: ``angle_com angle_surface``, means over the steady part t >= ``t_steady``;
-- ``drum.csv``: window means over ``window`` s of ke, rke (J), com_x, com_z (m) and the rows' angle_com
+- ``drum.csv``: window means over ``window`` s (from ``window_start``) of ke, rke (J), com_x, com_z (m) and the rows' angle_com
   (deg), the quantities a cross-code check scores (single rows of a granular flow are chaotic, window means
   are not: docs/scenes.md);
 - ``angle_series.csv``: time (s) and angle_com (deg) of every thermo row, for plots.
@@ -68,10 +68,9 @@ def surface_angle(points: np.ndarray, guess_deg: float, diameter: float) -> floa
     return guess_deg + math.degrees(math.atan(slope))
 
 
-def window_means(time: np.ndarray, columns: list[np.ndarray], window: float) -> list[list[float]]:
-    """Rows (window centre, mean of each column) over consecutive windows (start, start + window] of time."""
+def window_means(time: np.ndarray, columns: list[np.ndarray], window: float, start: float = 0.0) -> list[list[float]]:
+    """Rows (window centre, mean of each column) over consecutive windows (t, t + window] of time from ``start``."""
     rows = []
-    start = 0.0
     while start + window <= time[-1] + 1e-9:
         inside = (time > start + 1e-12) & (time <= start + window + 1e-12)
         rows.append([start + 0.5 * window] + [float(c[inside].mean()) for c in columns])
@@ -80,12 +79,13 @@ def window_means(time: np.ndarray, columns: list[np.ndarray], window: float) -> 
 
 
 def measure(folder: Path | str = ".", *, timestep: float, diameter: float, t_steady: float = 1.0,
-            window: float = 0.5) -> dict[str, float]:
+            window: float = 0.5, window_start: float = 0.0) -> dict[str, float]:
     """Measure the run in ``folder`` and write angle.txt, drum.csv and angle_series.csv there.
 
     ``timestep`` (s) turns the thermo's steps into time (LIGGGHTS prints no time column), ``diameter`` (m) of
     the (member) spheres sets the surface fit's bins, ``t_steady`` (s) starts the steady part, ``window`` (s)
-    is the length of drum.csv's windows (about one avalanche period). Returns angle_com and angle_surface
+    is the length of drum.csv's windows (about one avalanche period), the first starting at ``window_start`` (s;
+    later than 0 when particles are inserted at random, a fall no two runs share). Returns angle_com and angle_surface
     (deg) with their standard deviations over the rows and the dumps of the steady part.
     """
     folder = Path(folder)
@@ -118,7 +118,7 @@ def measure(folder: Path | str = ".", *, timestep: float, diameter: float, t_ste
     rke = thermo["rke"].to_numpy()
     with open(folder / "drum.csv", "w") as out:
         out.write("time,ke,rke,com_x,com_z,angle\n")
-        for row in window_means(time, [ke, rke, com_x, com_z, angle], window):
+        for row in window_means(time, [ke, rke, com_x, com_z, angle], window, window_start):
             out.write(",".join(repr(v) for v in row) + "\n")
     with open(folder / "angle_series.csv", "w") as out:
         out.write("time,angle\n")

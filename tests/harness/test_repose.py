@@ -80,6 +80,9 @@ def test_window_means_take_the_rows_of_each_window(tmp_path):
     assert table[:, 1].tolist() == [3.0, 8.0]
     assert table[:, 2].tolist() == [6.0, 16.0]
     assert table[:, 5] == pytest.approx([20.0, 20.0], abs=1e-9)
+    repose.measure(tmp_path, timestep=TIMESTEP, diameter=DIAMETER, t_steady=0.0, window=0.5, window_start=0.5)
+    table = np.loadtxt(tmp_path / "drum.csv", delimiter=",", skiprows=1, ndmin=2)
+    assert table[:, 0].tolist() == [0.75] and table[:, 1].tolist() == [8.0]
 
 
 def test_the_drum_post_scripts_share_the_measurement():
