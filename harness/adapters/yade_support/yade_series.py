@@ -30,7 +30,8 @@ it is compared with print, v(t) = v(t - dt/2) + dt/2 (F(t)/m + g), w(t) = w(t - 
 NewtonIntegrator does before it moves the clump: F = sum f_i, T = sum t_i + (x_i - X) x f_i, plus what
 acts on the clump body itself); an aspherical clump (unequal principal moments) is integrated through its
 angular momentum ``state.angMom`` = L(t - dt/2), so L(t) = L(t - dt/2) + dt/2 T(t) and w(t) = R I^-1 R^T L(t)
-with R the rotation of ``state.ori``. With NewtonIntegrator.damping != 0 this shift leaves YADE's damping out.
+with R the rotation of ``state.ori`` (NewtonIntegrator recomputes such a clump's ``angVel`` from ``angMom``:
+a script spins it by setting ``angMom``). With NewtonIntegrator.damping != 0 this shift leaves YADE's damping out.
 Because the sample of step N is taken inside iteration N + 1, ``run(N)`` runs N + 1 iterations (the last
 one's integration is not sampled).
 """
