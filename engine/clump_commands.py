@@ -24,12 +24,6 @@ def _material(sim, fields: Fields) -> int:
     return t
 
 
-def _refuse_periodic(sim, fields: Fields, field: str):
-    if sim.lo is not None and np.any(sim.periodic):
-        raise fields.error(field, "clumps need a domain without periodic axes (a clump across a periodic "
-                           "boundary is not supported)")
-
-
 def create_template(sim, fields: Fields):
     name = fields.string("name", required=True)
     if name in sim.clump_templates:
@@ -86,7 +80,6 @@ def orientation_of(fields: Fields, name: str = "orientation") -> np.ndarray:
 
 
 def create_clump(sim, fields: Fields):
-    _refuse_periodic(sim, fields, "template")
     template = _template(sim, fields)
     position = np.array(fields.vector("position", required=True))
     q = orientation_of(fields)
@@ -97,7 +90,6 @@ def create_clump(sim, fields: Fields):
 def create_clump_packing(sim, fields: Fields):
     """count clumps of a template at random positions (no overlap of their bounding spheres with each other
     or with particles there) and random orientations (uniform; Shoemake), from seed."""
-    _refuse_periodic(sim, fields, "template")
     template = _template(sim, fields)
     count = fields.integer("count", required=True, minimum=1)
     seed = fields.integer("seed", required=True, minimum=0)

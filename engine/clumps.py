@@ -298,7 +298,7 @@ def rotate(q, angmom, inertia, dt):
 
 
 @njit(cache=True, error_model="numpy")
-def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq):
+def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq, lo, hi, periodic):
     """The bodies' part of a step (see the module docstring); the particle pass has done the free spheres.
 
     collect: sum the members' forces and torques onto their bodies (and clear the members' for the next force
@@ -306,6 +306,11 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq):
     the drift of X and the rotation of q. Then every member is placed (drift) and given its body's velocity
     at its centre and the body's angular velocity. Returns (members beyond skin/2 since the last rebuild,
     first member with a non-finite position or n), as the particle pass does for the free spheres.
+
+    Periodic axes (domain lo, hi in m): a centre of mass and a member placed beyond the box are put back by
+    one period (engine/neighbor.py wraps free spheres so at each rebuild), so a clump across the boundary has
+    members on both sides; the lever arm x_i - X and a member's travel since the last rebuild are taken as
+    the nearest image.
     """
     x = s.x
     v = s.v
@@ -319,6 +324,7 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq):
     member_offset = b.member_offset
     nb = b.mass.shape[0]
     half_dt = 0.5 * dt
+    box = hi - lo
     if collect:
         for k in range(nb):
             b.members[k] = 0
@@ -336,6 +342,12 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq):
             rx = x[i, 0] - b.x[k, 0]
             ry = x[i, 1] - b.x[k, 1]
             rz = x[i, 2] - b.x[k, 2]
+            if periodic[0]:
+                rx -= box[0] * np.rint(rx / box[0])
+            if periodic[1]:
+                ry -= box[1] * np.rint(ry / box[1])
+            if periodic[2]:
+                rz -= box[2] * np.rint(rz / box[2])
             b.force[k, 0] += fx
             b.force[k, 1] += fy
             b.force[k, 2] += fz
@@ -363,6 +375,8 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq):
                 b.v[k, a] += half_dt * b.force[k, a] * inv_m
                 b.angmom[k, a] += half_dt * b.torque[k, a]
                 b.x[k, a] += dt * b.v[k, a]
+                if periodic[a] and (b.x[k, a] < lo[a] or b.x[k, a] >= hi[a]):
+                    b.x[k, a] -= box[a] * np.floor((b.x[k, a] - lo[a]) / box[a])
             rotate(b.q[k], b.angmom[k], b.inertia[k], dt)
         angular_velocity(b.q[k], b.angmom[k], b.inertia[k], b.omega[k])
         _rotation(b.q[k, 0], b.q[k, 1], b.q[k, 2], b.q[k, 3], rot[k])
@@ -392,9 +406,18 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq):
             x[i, 0] = b.x[k, 0] + r0
             x[i, 1] = b.x[k, 1] + r1
             x[i, 2] = b.x[k, 2] + r2
+            for a in range(3):
+                if periodic[a] and (x[i, a] < lo[a] or x[i, a] >= hi[a]):
+                    x[i, a] -= box[a] * np.floor((x[i, a] - lo[a]) / box[a])
             dx = x[i, 0] - x_build[i, 0]
             dy = x[i, 1] - x_build[i, 1]
             dz = x[i, 2] - x_build[i, 2]
+            if periodic[0]:
+                dx -= box[0] * np.rint(dx / box[0])
+            if periodic[1]:
+                dy -= box[1] * np.rint(dy / box[1])
+            if periodic[2]:
+                dz -= box[2] * np.rint(dz / box[2])
             d2 = dx * dx + dy * dy + dz * dz
             if d2 > half_skin_sq:
                 need += 1
@@ -404,10 +427,11 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq):
 
 
 @njit(cache=True, error_model="numpy")
-def overlap_statistics(x, radius, pid, member_body, nbr_start, nbr_j, ratio_limit):
+def overlap_statistics(x, radius, pid, member_body, nbr_start, nbr_j, ratio_limit, lo, hi, periodic):
     """(contacts, contacts above ratio_limit of the smaller radius, largest overlap / smaller radius) of the
-    listed pairs that are not two members of one body (those overlap by design). Clump scenes have no
-    periodic axes."""
+    listed pairs that are not two members of one body (those overlap by design); nearest images along the
+    periodic axes of the domain lo, hi (m)."""
+    box = hi - lo
     n_contacts = 0
     n_large = 0
     worst = 0.0
@@ -420,6 +444,12 @@ def overlap_statistics(x, radius, pid, member_body, nbr_start, nbr_j, ratio_limi
             dx = x[i, 0] - x[j, 0]
             dy = x[i, 1] - x[j, 1]
             dz = x[i, 2] - x[j, 2]
+            if periodic[0]:
+                dx -= box[0] * np.rint(dx / box[0])
+            if periodic[1]:
+                dy -= box[1] * np.rint(dy / box[1])
+            if periodic[2]:
+                dz -= box[2] * np.rint(dz / box[2])
             n_contacts, n_large, worst = tally_overlap(
                 radius[i] + radius[j] - np.sqrt(dx * dx + dy * dy + dz * dz), min(radius[i], radius[j]),
                 ratio_limit, n_contacts, n_large, worst)
@@ -436,10 +466,11 @@ if body_i >= 0 and member_body[pid[j]] == body_i:
 """
 SAME_BODY_HEAD = "member_body = bodies.member_body\n"
 #: the bodies' pass after each particle pass, and after the first drift of a chunk
-BODY_SETUP = "body_pass(s, n, bodies, gravity, dt, True, False, False, 0.0)\n"
-BODY_START = ("need_b, bad_b = body_pass(s, n, bodies, gravity, dt, False, False, True, half_skin_sq)\n"
-              "need += need_b\nfirst_bad = min(first_bad, bad_b)\n")
-BODY_STEP = ("need_b, bad_b = body_pass(s, n, bodies, gravity, dt, True, True, not record, half_skin_sq)\n"
+BODY_SETUP = "body_pass(s, n, bodies, gravity, dt, True, False, False, 0.0, lo, hi, periodic)\n"
+BODY_START = ("need_b, bad_b = body_pass(s, n, bodies, gravity, dt, False, False, True, half_skin_sq, lo, hi, "
+              "periodic)\nneed += need_b\nfirst_bad = min(first_bad, bad_b)\n")
+BODY_STEP = ("need_b, bad_b = body_pass(s, n, bodies, gravity, dt, True, True, not record, half_skin_sq, lo, hi, "
+             "periodic)\n"
              "need += need_b\nfirst_bad = min(first_bad, bad_b)\n")
 
 
@@ -476,10 +507,14 @@ def add_bodies(sim, template: Template, positions, quaternions, velocity, omega,
 
     if sim.bodies is None:
         sim.bodies = empty_bodies(sim.next_id)
-    positions = np.asarray(positions, float).reshape(-1, 3)
+    positions = np.array(positions, float).reshape(-1, 3)
     k = len(positions)
     if k == 0:
         return
+    if sim.lo is not None:
+        # a centre of mass beyond a periodic boundary is put back by one period, as body_pass does
+        for a in np.nonzero(sim.periodic)[0]:
+            positions[:, a] = sim.lo[a] + np.mod(positions[:, a] - sim.lo[a], sim.hi[a] - sim.lo[a])
     q = np.array([quaternion_product(qu, template.q_axes) for qu in np.asarray(quaternions, float).reshape(-1, 4)])
     rot = rotation_matrices(q)
     members = len(template.radii)
@@ -638,7 +673,8 @@ def body_value(sim, name: str, bid: int) -> float:
 
 def overlaps(sim, ratio_limit: float):
     s = sim.state
-    return overlap_statistics(s.x, s.radius, s.pid, sim.bodies.member_body, sim.nbr.start, sim.nbr.j, ratio_limit)
+    return overlap_statistics(s.x, s.radius, s.pid, sim.bodies.member_body, sim.nbr.start, sim.nbr.j, ratio_limit,
+                              sim.lo, sim.hi, sim.periodic)
 
 
 # ---------------------------------------------------------------- restart files

@@ -330,3 +330,48 @@ def test_outlet_removes_whole_clumps_and_mass_rate_inserts_clumps(engine_run):
     removed = s["removed_count[drain]"] / 3
     assert s["removed_mass[drain]"] == pytest.approx(removed * mass, rel=1e-12)
     assert s["mass[type=1]"] == pytest.approx(s["atoms"] / 3 * mass, rel=1e-12)
+
+
+# ---------------------------------------------------------------- periodic axes
+
+def _collision(engine_run, shift, sub):
+    """Two tilted, spinning dumbbells meet obliquely (friction 0.5, no gravity) in a box periodic along x
+    (40 mm), their configuration moved by ``shift`` (m) along x: 0 meets in the middle, 0.02 across the
+    boundary. Per row: both bodies' x, velocity, angular velocity, and the pair statistics."""
+    r = 0.002
+    spheres = [[-r, 0, 0, r], [r, 0, 0, r]]
+    tilt_a = {"axis": [0, 0, 1], "angle": 30.0}
+    tilt_b = {"axis": [1, 1, 0], "angle": -50.0}
+    half = 0.02
+    columns = ["body_x[1]", "body_x[2]", "contacts", "max_overlap", "ke", "rke"] + [
+        f"body_{q}[{b}]" for b in (1, 2) for q in ("vx", "vy", "vz", "omegax", "omegay", "omegaz")]
+    code, folder = engine_run([domain(lo=(-half, -0.05, -0.05), hi=(half, 0.05, 0.05), periodic=(True, False, False)),
+                               material(), interaction(e=0.5, mu=0.5), model(), template("db", spheres),
+                               clump("db", [-0.006 + shift, 0.0015, 0.0], velocity=[0.5, 0, 0], omega=[0, 0, 20.0],
+                                     orientation=tilt_a),
+                               clump("db", [0.006 + shift, -0.0015, 0.0005], velocity=[-0.5, 0, 0],
+                                     omega=[10.0, 0, 0], orientation=tilt_b),
+                               timestep(1e-5)] + printer(20, columns) + [run(1500)], sub=sub)
+    assert code == 0, (folder / "log.dem").read_text()[-2000:]
+    return read_csv(folder / "series.csv")
+
+
+def test_clumps_collide_across_a_periodic_boundary_as_inside_the_box(engine_run):
+    """The same collision in the middle of the box and across its periodic boundary: the same motion (to
+    round-off of the wrapped coordinates), the same contacts and overlaps, the centres of mass a half period
+    apart and inside the box."""
+    inside = _collision(engine_run, 0.0, "inside")
+    across = _collision(engine_run, 0.02, "across")
+    assert inside["contacts"].max() >= 1 and inside["max_overlap"].max() > 0
+    # a real collision: the bodies turned each other
+    assert abs(inside["body_vx[1]"][-1] - 0.5) > 0.1 and abs(inside["body_omegay[1]"][-1]) > 1.0
+    np.testing.assert_array_equal(across["contacts"], inside["contacts"])
+    np.testing.assert_allclose(across["max_overlap"], inside["max_overlap"], rtol=1e-6, atol=1e-9)
+    for name in inside:
+        if name.startswith(("body_v", "body_omega")) or name in ("ke", "rke"):
+            np.testing.assert_allclose(across[name], inside[name], rtol=1e-7, atol=1e-9, err_msg=name)
+    for b in (1, 2):
+        x = across[f"body_x[{b}]"]
+        assert np.all((x >= -0.02) & (x < 0.02))
+        shifted = (inside[f"body_x[{b}]"] + 0.02 + 0.02) % 0.04 - 0.02
+        np.testing.assert_allclose(x, shifted, atol=1e-9)
