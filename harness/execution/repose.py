@@ -26,9 +26,9 @@ bottom moves towards -x and the bed climbs on the -x side.
 Files written (in the run folder):
 
 - ``angle.txt``: ``angle_com angle_surface``, means over the steady part t >= ``t_steady``;
-- ``drum.csv``: window means over ``window`` s (from ``window_start``) of ke, rke (J), com_x, com_z (m) and the rows' angle_com
-  (deg), the quantities a cross-code check scores (single rows of a granular flow are chaotic, window means
-  are not: docs/scenes.md);
+- ``drum.csv``: window means over ``window`` s (from ``window_start``) of ke, rke (J), com_x, com_z (m) and
+  the rows' angle_com (deg), the quantities a cross-code check scores (single rows of a granular flow are
+  chaotic, window means are not: docs/scenes.md);
 - ``angle_series.csv``: time (s) and angle_com (deg) of every thermo row, for plots.
 
 ke is the thermo column ``kems`` when there is one (LIGGGHTS' ``compute ke/multisphere`` of multisphere

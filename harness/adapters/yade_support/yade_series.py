@@ -40,7 +40,8 @@ import math
 import sys
 import time
 
-__all__ = ["variables", "Thermo", "run", "write_timing", "start_at_full_step", "write_final_state"]
+__all__ = ["variables", "Thermo", "run", "write_timing", "start_at_full_step", "write_final_state", "bodies",
+           "count_spheres", "body_force"]
 
 _SAMPLERS = {}
 
@@ -165,7 +166,7 @@ def body_force(O, body):
     force, torque = list(O.forces.f(body.id, True)), list(O.forces.t(body.id, True))
     if body.isClump:
         centre = body.state.pos
-        for member in body.shape.members.keys():
+        for member in body.shape.members:
             f, t = O.forces.f(member, True), O.forces.t(member, True)
             arm = O.bodies[member].state.pos - centre
             moment = arm.cross(f)
