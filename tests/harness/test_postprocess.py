@@ -118,3 +118,15 @@ def test_dem_adapter_files(tmp_path):
     (tmp_path / "log.dem").write_bytes(b"run\nWARNING: close\n\xff\xfe\nERROR: boom\n")
     scan = adapter.scan_log(tmp_path)
     assert scan.errors == ["ERROR: boom"] and scan.warnings == ["WARNING: close"]
+
+
+def test_a_post_script_finds_the_adapter_of_the_code_that_wrote_the_run(tmp_path):
+    from harness.adapters import adapter_of_run
+
+    with pytest.raises(UserError, match="no engine log .*log.dem.*log.yade"):
+        adapter_of_run(tmp_path)
+    for log, name in (("log.liggghts", "liggghts"), ("log.yade", "yade"), ("log.lammps", "lammps"), ("log.dem", "dem")):
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / log).write_text("")
+        assert adapter_of_run(folder).name == name
