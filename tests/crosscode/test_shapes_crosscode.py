@@ -101,7 +101,7 @@ def clump_drum(tmp_path_factory):
     home = tmp_path_factory.mktemp("home")
     env = post_script_env(tmp_path_factory.mktemp("userbase"))
     pattern = "testcases/shapes/drum_repose/dumbbell[s]"   # a glob: seed 1 only (a substring takes all three)
-    harness(home, "run", "liggghts-shapes", "dem-shapes", "-k", pattern, "-j", "1", env=env, timeout=1800)
+    harness(home, "run", "liggghts-shapes", "dem-shapes", "-k", pattern, "-j", "1", env=env)
     check = harness(home, "check", "dem-shapes", "-k", pattern, "--json", check=False, env=env)
     return records(home, "dem-shapes"), records(home, "liggghts-shapes"), check
 
