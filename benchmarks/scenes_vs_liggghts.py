@@ -18,6 +18,8 @@ Printed: one line per run, then per scene run the median loop times and their ra
 
     python benchmarks/scenes_vs_liggghts.py                                  # drum (+ hopper), 2 rounds
     python benchmarks/scenes_vs_liggghts.py --scenes testcases/scenes/drum --repeats 3 --var steps 50000
+    python benchmarks/scenes_vs_liggghts.py --scenes testcases/shapes/drum_repose -k dumbbells_2 --var steps 100000
+                                                                             # clumps: LIGGGHTS' multisphere model
 """
 from __future__ import annotations
 
