@@ -97,6 +97,12 @@ def check_ready(sim, fields: Fields):
             if sim.periodic[a] and sim.hi[a] - sim.lo[a] < 2 * cutoff:
                 raise fields.error("steps", f"cannot run: periodic length along {'xyz'[a]} must be at least "
                                    f"twice the neighbor cutoff ({2 * cutoff:g} m)")
+    # a clump's lever arms are nearest images (engine/clumps.py, body_pass): its members within half a period
+    reach = max((t.bounding_radius for t in sim.clump_templates.values()), default=0.0)
+    for a in range(3):
+        if sim.periodic[a] and reach and sim.hi[a] - sim.lo[a] <= 2 * reach:
+            raise fields.error("steps", f"cannot run: periodic length along {'xyz'[a]} must be more than twice "
+                               f"the largest clump template's bounding radius ({2 * reach:g} m)")
 
 
 def fit_history(sim, combo: Combination):

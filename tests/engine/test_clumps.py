@@ -375,3 +375,15 @@ def test_clumps_collide_across_a_periodic_boundary_as_inside_the_box(engine_run)
         assert np.all((x >= -0.02) & (x < 0.02))
         shifted = (inside[f"body_x[{b}]"] + 0.02 + 0.02) % 0.04 - 0.02
         np.testing.assert_allclose(x, shifted, atol=1e-9)
+
+
+def test_a_clump_longer_than_half_a_period_is_bad_input(engine_run):
+    """The lever arms are nearest images: a period must be more than the clump's bounding diameter."""
+    long_rod = [[-0.006, 0, 0, 0.002], [0.006, 0, 0, 0.002]]          # bounding radius 8 mm
+    code, folder = engine_run([domain(lo=(-0.0075, -0.05, -0.05), hi=(0.0075, 0.05, 0.05),
+                                      periodic=(True, False, False)),
+                               material(), interaction(), model(), template("rod", long_rod),
+                               clump("rod", [0, 0, 0]), timestep(1e-5), run(10)])
+    assert code != 0
+    assert "periodic length along x must be more than twice the largest clump template's bounding radius " \
+           "(0.016 m)" in (folder / "log.dem").read_text()
