@@ -53,6 +53,7 @@ class Simulation:
         self.next_id = 1
         self.clump_templates: dict = {}  # name -> engine.clumps.Template
         self.bodies = None  # engine.clumps.Bodies once a scene has clumps
+        self.superquadrics = None  # engine.superquadrics.Superquadrics once a scene has superquadrics
         self.modifiers: dict[str, modifiers.Modifier] = {}
         self.active: list[str] = []  # fixed modifiers, in the order they were fixed
         self.modifier_state: dict[str, dict] = {}  # modifier name -> counters read from a restart file
