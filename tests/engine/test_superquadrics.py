@@ -307,7 +307,7 @@ def test_sphere_kernels_hold_no_superquadric_code():
 
 
 @pytest.mark.parametrize("extra, message", [
-    ({"command": "create", "object": "wall", "name": "drum", "shape": "cylinder", "axis": "z", "radius": 0.05,
+    ({"command": "create", "object": "wall", "name": "drum", "shape": "cylinder", "radius": 0.05,
       "center": [0, 0], "type": 1}, "superquadrics touch planes only, not cylinder walls"),
     ({"command": "create", "object": "particle", "type": 1, "radius": 0.004, "position": [0.05, 0, 0]},
      "superquadrics do not touch spheres"),
@@ -320,9 +320,9 @@ def test_scenes_superquadrics_cannot_run_are_refused(engine_run, extra, message)
 
 
 @pytest.mark.parametrize("field, value, message", [
-    ("blockiness", 1.5, "field 'blockiness': must be a number or [n1, n2], each from 2 to 20"),
+    ("blockiness", 1.5, "field 'blockiness' must be a number or [n1, n2], each from 2 to 20"),
     ("blockiness", [2, 3, 4], "field 'blockiness'"),
-    ("half_axes", [0.01, 0, 0.01], "field 'half_axes': must be three lengths > 0"),
+    ("half_axes", [0.01, 0, 0.01], "field 'half_axes' must be three lengths > 0"),
 ])
 def test_bad_shape_fields_name_the_field(engine_run, field, value, message):
     body = sq((0, 0, 0.02), (0.005, 0.005, 0.005), 2)
