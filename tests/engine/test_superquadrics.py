@@ -164,44 +164,68 @@ def _incline(theta_deg, mu, steps):
 
 @pytest.mark.parametrize("theta, slides", [(24.0, False), (29.0, True), (35.0, True)])
 def test_ellipsoid_on_an_incline_slides_exactly_when_tan_theta_exceeds_mu(engine_run, theta, slides):
+    """Lying flat, it cannot roll away (its centre would rise); it rocks on its flat side, undamped since the
+    contact point does not slip, and near the threshold slips a little while it lands (about 2 mm at 24
+    degrees in the first 0.15 s). After that: at rest on average below the threshold, sliding with the
+    acceleration g (sin theta - mu cos theta) above it (a straight-line fit over the rocking)."""
     mu = 0.5  # tan(theta) = mu at 26.57 degrees
-    code, folder = engine_run(_incline(theta, mu, 60000), sub=f"incline{theta}")
+    code, folder = engine_run(_incline(theta, mu, 80000), sub=f"incline{theta}")
     assert code == 0, (folder / "log.dem").read_text()
     t_series = read_csv(folder / "thermo.csv")
     th = math.radians(theta)
     down = np.array([-math.cos(th), -math.sin(th)])  # downhill along the incline, in the x-z plane
     s = t_series["sq_x[1]"] * down[0] + t_series["sq_z[1]"] * down[1]
     v = t_series["sq_vx[1]"] * down[0] + t_series["sq_vz[1]"] * down[1]
-    late = t_series["time"] >= 0.1  # after the landing; the body rocks on its flat side throughout
-    acceleration = np.polyfit(t_series["time"][late], v[late], 1)[0]
+    time = t_series["time"]
+    late = time >= 0.2
+    acceleration = np.polyfit(time[late], v[late], 1)[0]
     analytic = 9.81 * (math.sin(th) - mu * math.cos(th))
     if slides:
         assert acceleration == pytest.approx(analytic, rel=0.03)
-        assert s[-1] - s[0] > 0.4 * analytic * 0.6 ** 2 / 2
+        assert s[-1] - s[late][0] > 0.9 * analytic * (time[-1] ** 2 - 0.2 ** 2) / 2
     else:
-        assert abs(acceleration) < 0.01 * 9.81 * math.sin(th)
-        assert np.abs(s - s[0]).max() < 1e-3  # rocks in place: below a tenth of its length
+        assert abs(acceleration) < 0.005 * 9.81 * math.sin(th)
+        assert np.abs(s[late] - s[late].mean()).max() < 2e-4  # rocks in place
 
 
-def test_colliding_ellipsoids_without_damping_conserve_energy_and_momentum(engine_run):
-    """Two ellipsoids, turned and spinning, meet off-centre (e = 1, no friction, no gravity): translational
-    plus rotational energy to the integration error, momentum and angular momentum about the origin to
-    round-off (equal and opposite forces at one contact point)."""
-    a = (0.01, 0.006, 0.004)
-    bodies = [sq((-0.012, 0.003, 0.001), a, 2, velocity=(1.0, 0, 0), omega=(0, 0, 20),
-                 orientation={"axis": [1, 1, 0], "angle": 30}),
-              sq((0.012, -0.002, 0.0), a, [2, 2], velocity=(-0.5, 0.1, 0), omega=(10, 0, 0),
-                 orientation={"axis": [0, 1, 1], "angle": 70})]
+def _collision(bodies, dt=1e-6, steps=30000):
     cols = [f"sq_{n}[{k}]" for k in (1, 2) for n in ("x", "y", "z", "vx", "vy", "vz", "lx", "ly", "lz")]
-    code, folder = engine_run(_scene(bodies, (), mu=0.0, e=1.0, g=False, dt=1e-6, steps=30000, every=100,
-                                     columns=cols + ["momentum_x", "momentum_y"]), sub="collide")
+    return _scene(bodies, (), mu=0.0, e=1.0, g=False, dt=dt, steps=steps, every=100, columns=cols)
+
+
+ELLIPSOID = (0.01, 0.006, 0.004)
+
+
+def test_ellipsoids_colliding_head_on_without_damping_conserve_energy(engine_run):
+    """Along their long axes (the curvature radius at the contact stays that of the tips), e = 1: the energy
+    after the contact is the energy before to 1e-9 (measured: -7.8e-10 at dt = 1e-6 s, -3.8e-10 at 2.5e-7 s)."""
+    bodies = [sq((-0.011, 0, 0), ELLIPSOID, 2, velocity=(1.0, 0, 0), omega=(30, 0, 0)),
+              sq((0.011, 0, 0), ELLIPSOID, 2, velocity=(-0.5, 0, 0))]
+    code, folder = engine_run(_collision(bodies), sub="head_on")
     assert code == 0, (folder / "log.dem").read_text()
     t = read_csv(folder / "thermo.csv")
-    m = superquadrics.mass_properties(*a, 2, 2, RHO)["mass"]
     energy = t["ke"] + t["rke"]
-    assert np.abs(t["sq_vx[1]"] - 1.0).max() > 0.3  # they collided
+    assert t["sq_vx[1]"][-1] == pytest.approx(-0.5, rel=1e-4) and t["sq_vx[2]"][-1] == pytest.approx(1.0, rel=1e-4)
+    assert abs(energy[-1] - energy[0]) < 1e-8 * energy[0]
+
+
+def test_colliding_ellipsoids_conserve_momentum_and_angular_momentum(engine_run):
+    """Two ellipsoids, turned and spinning, meet off-centre (e = 1, no friction, no gravity): momentum and
+    angular momentum about the origin to round-off (equal and opposite forces at one contact point). The
+    energy changes by +0.71 % whatever the time step (dt = 1e-6 s and 2.5e-7 s agree to 1e-10): the Hertz
+    stiffness follows the curvature radius at the moving contact point, so the force is not the gradient of
+    one potential (docs/shapes.md)."""
+    bodies = [sq((-0.012, 0.003, 0.001), ELLIPSOID, 2, velocity=(1.0, 0, 0), omega=(0, 0, 20),
+                 orientation={"axis": [1, 1, 0], "angle": 30}),
+              sq((0.012, -0.002, 0.0), ELLIPSOID, [2, 2], velocity=(-0.5, 0.1, 0), omega=(10, 0, 0),
+                 orientation={"axis": [0, 1, 1], "angle": 70})]
+    code, folder = engine_run(_collision(bodies), sub="oblique")
+    assert code == 0, (folder / "log.dem").read_text()
+    t = read_csv(folder / "thermo.csv")
+    m = superquadrics.mass_properties(*ELLIPSOID, 2, 2, RHO)["mass"]
+    energy = t["ke"] + t["rke"]
     assert t["sq_vx[1]"][-1] < t["sq_vx[1]"][0] - 0.3 and np.abs(np.diff(t["sq_vx[1]"][-5:])).max() == 0.0
-    assert np.abs(energy - energy[0]).max() < 1e-4 * energy[0]
+    assert abs(energy[-1] / energy[0] - 1.0071284) < 1e-5
     for axis in "xyz":
         p = m * (t[f"sq_v{axis}[1]"] + t[f"sq_v{axis}[2]"])
         assert np.abs(p - p[0]).max() < 1e-12 * m
