@@ -225,7 +225,7 @@ def _chunk(sim, fields: Fields, kernel: _Kernel, progress: _Progress, stop: int,
     status, bad, done, rebuilt, kept, sim.nbr, sim.mesh_nbr = kernel.steps(sim, stop - sim.step, progress.timers,
                                                                           lost)
     sim.state = particle_state.trimmed(sim.state, kept)
-    progress.particle_steps += done * n
+    progress.particle_steps += done * (n + superquadrics.count(sim))
     progress.rebuilds += rebuilt
     sim.step += done
     sim.time = start_time + (sim.step - start_step) * sim.dt
@@ -260,10 +260,10 @@ def _report(sim, steps: int, threads: int, progress: _Progress, total: float, cp
     t["total"] += total
     t["cpu"] += cpu
     t["steps"] += steps
-    t["particles"] = sim.n
+    t["particles"] = sim.n + superquadrics.count(sim)
     t["particle_steps"] += particle_steps
     rate = particle_steps / total if total > 0 else 0.0
-    sim.log.info(f"Loop time of {total:.6g} s for {steps} steps with {sim.n} particles "
+    sim.log.info(f"Loop time of {total:.6g} s for {steps} steps with {t['particles']} particles "
                  f"({rate:.4g} particle-steps/s); pair {timers[1]:.4g} s, neigh {timers[0]:.4g} s "
                  f"({progress.rebuilds} rebuilds), modify {timers[2]:.4g} s; max overlap "
                  f"{progress.max_overlap:.2%} of radius; particles lost so far {sim.lost_total}; cpu {cpu:.6g} s "

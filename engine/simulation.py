@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import blowup, commands, modifiers
+from . import blowup, commands, modifiers, superquadrics
 from . import threads as thread_pool
 from . import state as particle_state
 from .log import Log
@@ -89,7 +89,8 @@ class Simulation:
 
     def total_line(self) -> str:
         """The log's last line after a successful script."""
-        return (f"total: {self.timing['steps']} steps, {self.n} particles, {self.lost_total} lost, "
+        return (f"total: {self.timing['steps']} steps, {self.n + superquadrics.count(self)} particles, "
+                f"{self.lost_total} lost, "
                 f"{self.log.warnings} warning(s)")
 
     def close(self):
