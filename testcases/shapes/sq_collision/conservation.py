@@ -30,7 +30,7 @@ with open(Path("post") / "conservation.csv", "w", newline="") as handle:
     out = csv.writer(handle)
     out.writerow(["time", "energy", "momentum", "angular_momentum", "speed_change"])
     for k in range(len(energy)):
-        out.writerow([col["time"][k], repr(energy[k] / energy[0] - 1.0),
+        out.writerow([col["time"][k], repr(float(energy[k] / energy[0] - 1.0)),
                       repr(float(np.linalg.norm(momentum[k] - momentum[0]) / (mass * np.linalg.norm(v1[0])))),
                       repr(float(np.linalg.norm(angular[k] - angular[0]) / np.linalg.norm(angular[0]))),
                       repr(float(np.linalg.norm(v1[k] - v1[0])))])
