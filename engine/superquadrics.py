@@ -20,8 +20,8 @@ superquadrics: slots ``${sq_*}``). What this module holds:
   support points, so at the minimum w is parallel to n: the two surface points have opposite normals along
   their connecting line, the contact condition of Podlozhnyuk et al. 2017. `pair_contact` minimises d(n) on
   the unit sphere by Newton's method in the tangent plane (Hessian by differences of w, backtracking line
-  search), from the last step's normal of the contact (or the line of centres), after a bounding-sphere
-  check; d < 0 along any direction tried is a separating axis: no contact. For a plane of normal m the
+  search; it stops when the gradient or the decrease of d becomes negligible), from the last step's normal of
+  the contact (or the line of centres), after a bounding-sphere check; d < 0 along any direction tried is a separating axis: no contact. For a plane of normal m the
   support point along -m is the deepest point, in closed form.
 - **the contact force**: the engine's Hertz or Hooke normal law and its tangential laws (engine/contact_laws.py)
   at the midpoint c of the two support points, with the equivalent radius R* = R_i R_j / (R_i + R_j) of the
@@ -73,11 +73,15 @@ Laws = namedtuple("Laws", ["pp", "normal", "tangential", "limit_force", "tangent
 NORMAL_LAWS = {"hertz": 0, "hooke": 1}
 TANGENTIAL_LAWS = {"none": 0, "no_history": 1, "history": 2}
 
-#: Newton search of the contact normal: iterations, tangential gradient tolerance (relative to the bodies'
-#: size), angle of the difference step (rad)
+#: Newton search of the contact normal: iterations; it stops when the tangential gradient, or the decrease of
+#: the depth in one iteration, is below these fractions of the bodies' size (a blocky body's edge is nearly a
+#: kink of d(n), where the gradient never vanishes while the depth is found to 1e-9 of itself); angle of the
+#: difference step (rad); halvings of a step that does not decrease the depth
 MAX_ITERATIONS = 40
 GRADIENT_TOLERANCE = 1e-13
+DEPTH_TOLERANCE = 1e-12
 DIFFERENCE_STEP = 1e-6
+HALVINGS = 30
 
 
 def empty(planes: int = 0) -> Superquadrics:
@@ -261,12 +265,25 @@ def _unit(x, y, z):
 
 
 @njit(cache=True, error_model="numpy")
-def pair_contact(x, rot, shape, i, j, nx, ny, nz, scale):
+def pair_contact(x, rot, shape, i, j, nx, ny, nz, scale, start_on_axes):
     """The penetration depth of bodies i and j (m; < 0: apart) and its unit normal (from j to i), minimising
     d(n) = h_j(n) + h_i(-n) on the unit sphere from the start n (module docstring). scale (m): the sum of the
-    bounding radii, for the tolerances. Returns (d, nx, ny, nz, iterations)."""
+    bounding radii, for the tolerances. start_on_axes: start instead from whichever of n and the bodies'
+    six axis directions (turned to n's side) gives the smallest d - for a new contact, whose line of centres
+    may be far from the normal, most of all between blocky bodies, which often touch near a face normal.
+    Returns (d, nx, ny, nz, iterations)."""
     nx, ny, nz = _unit(nx, ny, nz)
     d, wx, wy, wz = _along(x, rot, shape, i, j, nx, ny, nz)
+    if start_on_axes:  # a new contact: the best of the start and the six half-axis directions near it
+        for k in (i, j):
+            for a in range(3):
+                ax = rot[k, 0, a]
+                ay = rot[k, 1, a]
+                az = rot[k, 2, a]
+                side = 1.0 if ax * nx + ay * ny + az * nz >= 0.0 else -1.0
+                dm, vx, vy, vz = _along(x, rot, shape, i, j, side * ax, side * ay, side * az)
+                if dm < d:
+                    nx, ny, nz, d, wx, wy, wz = side * ax, side * ay, side * az, dm, vx, vy, vz
     it = 0
     while it < MAX_ITERATIONS and d > 0.0:
         it += 1
@@ -297,17 +314,19 @@ def pair_contact(x, rot, shape, i, j, nx, ny, nz, scale):
             t2 *= 0.5 / size
             size = 0.5
         accepted = False
-        for _ in range(40):
+        decrease = 0.0
+        for _ in range(HALVINGS):
             mx, my, mz = _unit(nx + t1 * e1x + t2 * e2x, ny + t1 * e1y + t2 * e2y, nz + t1 * e1z + t2 * e2z)
             dm, vx, vy, vz = _along(x, rot, shape, i, j, mx, my, mz)
             if dm <= d:
+                decrease = d - dm
                 nx, ny, nz, d, wx, wy, wz = mx, my, mz, dm, vx, vy, vz
                 accepted = True
                 break
             t1 *= 0.5
             t2 *= 0.5
             size *= 0.5
-        if not accepted or size < 1e-12:
+        if not accepted or size < 1e-12 or decrease < DEPTH_TOLERANCE * scale:
             break
     return d, nx, ny, nz, it
 
@@ -401,7 +420,7 @@ def _pair_forces(sq, laws, dt, char_vel):
                 nx, ny, nz = dx, dy, dz
             else:
                 nx, ny, nz = 0.0, 0.0, 1.0
-            d, enx, eny, enz, _ = pair_contact(x, rot, shape, i, j, nx, ny, nz, reach)
+            d, enx, eny, enz, _ = pair_contact(x, rot, shape, i, j, nx, ny, nz, reach, slot < 0)
             if not d > 0.0:
                 continue
             if slot < 0:
@@ -632,8 +651,8 @@ def problem(sim) -> str | None:
     if others:
         return (f"superquadrics touch planes only, not {' or '.join(others)} walls "
                 f"(walls: {', '.join(w['name'] for w in sim.walls)})")
-    if sim.n or sim.bodies is not None:
-        return "superquadrics do not touch spheres or clumps: a scene has one or the other"
+    if sim.n or sim.bodies is not None or any(mod.kind == "insert" for mod in sim.active_modifiers()):
+        return "superquadrics do not touch spheres or clumps: a scene has one or the other (no insert modifier)"
     if np.any(sim.periodic):
         return "superquadrics need a domain without periodic axes"
     try:

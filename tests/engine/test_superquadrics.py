@@ -93,24 +93,25 @@ def _bodies(shapes, centres, quaternions):
 def test_penetration_depth_is_the_smallest_overlap_over_all_directions(shapes, centres):
     """The Newton search against the overlap along 200,000 random directions (its minimum is the depth)."""
     x, rot, shape = _bodies(shapes, centres, [[1, 0.2, 0.1, 0], [0.9, 0.1, 0.3, 0.2]])
-    d, nx, ny, nz, _ = superquadrics.pair_contact(x, rot, shape, 0, 1, *(x[0] - x[1]), 3.0)
+    d, nx, ny, nz, _ = superquadrics.pair_contact(x, rot, shape, 0, 1, *(x[0] - x[1]), 3.0, True)
     directions = np.random.default_rng(0).normal(size=(200_000, 3))
     directions /= np.linalg.norm(directions, axis=1)[:, None]
     brute = min(superquadrics._along(x, rot, shape, 0, 1, *u)[0] for u in directions)
     assert 0 < d <= brute + 1e-12
     assert d == pytest.approx(brute, rel=5e-3)  # the sampling's own error
-    # at the minimum the two support points are joined along the normal
+    # at the minimum the two support points are joined along the normal (to 1e-6 of the bodies' size: near a
+    # blocky body's edge d(n) is nearly a kink, and the search stops on the depth's decrease)
     _, wx, wy, wz = superquadrics._along(x, rot, shape, 0, 1, nx, ny, nz)
     w = np.array([wx, wy, wz])
-    assert np.linalg.norm(w - (w @ [nx, ny, nz]) * np.array([nx, ny, nz])) < 1e-9
+    assert np.linalg.norm(w - (w @ [nx, ny, nz]) * np.array([nx, ny, nz])) < 1e-6
 
 
 def test_separated_bodies_have_no_contact():
     x, rot, shape = _bodies([[1, 0.5, 0.3, 2, 2], [1, 0.5, 0.3, 2, 2]], [[0, 0, 0.61], [0, 0, 0]],
                             [[1, 0, 0, 0], [1, 0, 0, 0]])
-    assert superquadrics.pair_contact(x, rot, shape, 0, 1, 0.3, 0.2, 1.0, 2.0)[0] < 0
+    assert superquadrics.pair_contact(x, rot, shape, 0, 1, 0.3, 0.2, 1.0, 2.0, False)[0] < 0
     x[0, 2] = 0.59
-    d, nx, ny, nz, _ = superquadrics.pair_contact(x, rot, shape, 0, 1, 0.3, 0.2, 1.0, 2.0)
+    d, nx, ny, nz, _ = superquadrics.pair_contact(x, rot, shape, 0, 1, 0.3, 0.2, 1.0, 2.0, False)
     assert d == pytest.approx(0.01, rel=1e-9) and nz == pytest.approx(1.0)
 
 
