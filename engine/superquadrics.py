@@ -73,13 +73,14 @@ Laws = namedtuple("Laws", ["pp", "normal", "tangential", "limit_force", "tangent
 NORMAL_LAWS = {"hertz": 0, "hooke": 1}
 TANGENTIAL_LAWS = {"none": 0, "no_history": 1, "history": 2}
 
-#: Newton search of the contact normal: iterations; it stops when the tangential gradient, or the decrease of
-#: the depth in one iteration, is below these fractions of the bodies' size (a blocky body's edge is nearly a
-#: kink of d(n), where the gradient never vanishes while the depth is found to 1e-9 of itself); angle of the
-#: difference step (rad); halvings of a step that does not decrease the depth
+#: Newton search of the contact normal: iterations; it stops when the tangential gradient is below this
+#: fraction of the bodies' size, or an iteration lowers the depth by less than this fraction of itself (a
+#: blocky body's edge is nearly a kink of d(n), where the gradient never vanishes and the steps stay small:
+#: the depth is then known to about that fraction, the Hertz force to 1.5 times it); angle of the difference
+#: step (rad); halvings of a step that does not decrease the depth
 MAX_ITERATIONS = 40
 GRADIENT_TOLERANCE = 1e-13
-DEPTH_TOLERANCE = 1e-12
+DEPTH_TOLERANCE = 1e-8
 DIFFERENCE_STEP = 1e-6
 HALVINGS = 30
 
@@ -337,7 +338,7 @@ def pair_contact(x, rot, shape, i, j, nx, ny, nz, scale, start_on_axes):
             t1 *= 0.5
             t2 *= 0.5
             size *= 0.5
-        if not accepted or size < 1e-12 or decrease < DEPTH_TOLERANCE * scale:
+        if not accepted or size < 1e-12 or decrease < DEPTH_TOLERANCE * d:
             break
     return d, nx, ny, nz, it
 
