@@ -47,8 +47,8 @@ def overlaps(sim):
 
 
 def _ke(sim, mask=slice(None)):
-    if sim.superquadrics is not None:  # a scene of superquadrics has no spheres (engine/superquadrics.py)
-        return superquadrics.kinetic_energy(sim)
+    if sim.superquadrics is not None and isinstance(mask, slice):  # all of a scene of superquadrics, which has
+        return superquadrics.kinetic_energy(sim)  # no spheres (engine/superquadrics.py); selections pick spheres
     if sim.bodies is not None:  # a clump counts as its body (engine/clumps.py)
         return clumps.kinetic_energy(sim, mask)
     s = sim.state
@@ -56,7 +56,7 @@ def _ke(sim, mask=slice(None)):
 
 
 def _rke(sim, mask=slice(None)):
-    if sim.superquadrics is not None:
+    if sim.superquadrics is not None and isinstance(mask, slice):
         return superquadrics.rotational_energy(sim)
     if sim.bodies is not None:
         return clumps.rotational_energy(sim, mask)
