@@ -21,8 +21,9 @@ superquadrics: slots ``${sq_*}``). What this module holds:
   their connecting line, the contact condition of Podlozhnyuk et al. 2017. `pair_contact` minimises d(n) on
   the unit sphere by Newton's method in the tangent plane (Hessian by differences of w, backtracking line
   search; it stops when the gradient or the decrease of d becomes negligible), from the last step's normal of
-  the contact (or the line of centres), after a bounding-sphere check; d < 0 along any direction tried is a separating axis: no contact. For a plane of normal m the
-  support point along -m is the deepest point, in closed form.
+  the contact (a new contact: the best of the line of centres and the bodies' axis directions), after a
+  bounding-sphere check; d < 0 along any direction tried is a separating axis: no contact. For a plane of
+  normal m the support point along -m is the deepest point, in closed form.
 - **the contact force**: the engine's Hertz or Hooke normal law and its tangential laws (engine/contact_laws.py)
   at the midpoint c of the two support points, with the equivalent radius R* = R_i R_j / (R_i + R_j) of the
   mean-curvature radii R = 2 / (k1 + k2) of the two surfaces at their support points (`curvature_radius`;
@@ -44,7 +45,8 @@ from collections import namedtuple
 import numpy as np
 
 from . import clumps
-from .contact_laws import effective_youngs_modulus, hertz_normal, hooke_normal, tangential_history, tangential_no_history
+from .contact_laws import (effective_youngs_modulus, hertz_normal, hooke_normal, tangential_history,
+                           tangential_no_history)
 from .jit import njit
 from .models import PARAMETERS
 from .walls import surface_speeds
@@ -356,9 +358,9 @@ def contact_force(laws, ti, tj, d, enx, eny, enz, vrx, vry, vrz, reff, meff, dt,
     pp = laws.pp
     vn = vrx * enx + vry * eny + vrz * enz
     if laws.normal == 0:
-        fn, kn, kt, gn, gt = hertz_normal(d, vn, pp[ti, tj, 0], pp[ti, tj, 1], pp[ti, tj, 2], reff, meff)
+        fn, _, kt, _, gt = hertz_normal(d, vn, pp[ti, tj, 0], pp[ti, tj, 1], pp[ti, tj, 2], reff, meff)
     else:
-        fn, kn, kt, gn, gt = hooke_normal(d, vn, pp[ti, tj, 0], pp[ti, tj, 3], reff, meff, char_vel)
+        fn, _, kt, _, gt = hooke_normal(d, vn, pp[ti, tj, 0], pp[ti, tj, 3], reff, meff, char_vel)
     if laws.limit_force:
         fn = max(fn, 0.0)
     if not laws.tangential_damping:
