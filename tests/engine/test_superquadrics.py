@@ -118,15 +118,18 @@ def test_separated_bodies_have_no_contact():
 # ---------------------------------------------------------------- motion
 
 
-def _scene(bodies, walls=(), mu=0.3, e=0.5, g=True, dt=2e-6, steps=20000, every=1000, columns=(), tangential="history"):
+def _scene(bodies, walls=(), mu=0.3, e=0.5, g=True, dt=2e-6, steps=20000, every=1000, columns=(), normal="hertz",
+           tangential="history"):
     return [domain((-0.1, -0.1, -0.1), (0.1, 0.1, 0.1)), material(rho=RHO), interaction(e=e, mu=mu),
-            model(tangential=tangential), *walls, *(gravity() if g else []), *bodies, timestep(dt),
+            model(normal=normal, tangential=tangential,
+                  **({"characteristic_velocity": 1.0} if normal == "hooke" else {})), *walls, *(gravity() if g else []), *bodies, timestep(dt),
             thermo(every, list(columns)), run(steps)]
 
 
-def test_round_superquadrics_follow_the_spheres(engine_run):
+@pytest.mark.parametrize("normal, tangential", [("hertz", "history"), ("hooke", "no_history")])
+def test_round_superquadrics_follow_the_spheres(engine_run, normal, tangential):
     """n = 2 and a = b = c: the trajectories of two spheres (one bouncing with spin and friction on the floor,
-    the other landing on it) to round-off."""
+    the other landing on it) to round-off, with either normal law."""
     r = 0.005
     start = [dict(position=(0, 0, 0.006), velocity=(0.3, 0, -1.0), omega=(0, 5, 0)),
              dict(position=(0.002, 0.001, 0.02), velocity=(0, 0, -1.0), omega=(0, 0, 0))]
@@ -135,12 +138,13 @@ def test_round_superquadrics_follow_the_spheres(engine_run):
     spheres = [{"command": "create", "object": "particle", "type": 1, "radius": r, "position": list(b["position"]),
                 "velocity": list(b["velocity"]), "omega": list(b["omega"])} for b in start]
     bodies = [sq(b["position"], (r, r, r), 2, b["velocity"], b["omega"]) for b in start]
-    code, folder = engine_run(_scene(spheres, floor, columns=[f"{n}[{k}]" for k in (1, 2) for n in names]),
+    laws = dict(normal=normal, tangential=tangential)
+    code, folder = engine_run(_scene(spheres, floor, columns=[f"{n}[{k}]" for k in (1, 2) for n in names], **laws),
                               sub="spheres")
     assert code == 0
     want = read_csv(folder / "thermo.csv")
-    code, folder = engine_run(_scene(bodies, floor, columns=[f"sq_{n}[{k}]" for k in (1, 2) for n in names]),
-                              sub="superquadrics")
+    code, folder = engine_run(_scene(bodies, floor, columns=[f"sq_{n}[{k}]" for k in (1, 2) for n in names],
+                                     **laws), sub="superquadrics")
     assert code == 0, (folder / "log.dem").read_text()
     got = read_csv(folder / "thermo.csv")
     assert abs(want["omegay[2]"]).max() > 1.0 and abs(want["x[2]"] - 0.002).max() > 1e-3  # they met and turned
