@@ -9,7 +9,12 @@ core on a shared machine too). Printed: each engine's median and the ratio new /
 Part 2, clumps: a settling pile of N two-sphere clumps (aspect ratio 2) against 2 N free spheres of the same
 radius, same box, same contact model: member-sphere steps and body steps per CPU second.
 
+Part 3, superquadrics (engine/superquadrics.py): a settling pile of M superquadrics of half-axes 2r, r, r
+(aspect ratio 2; ellipsoids, n = 2, and blocky, n = 6) against M spheres of radius r, same box, same contact
+model: body-steps per CPU second.
+
     python benchmarks/engine_shapes.py [--base REV] [--side 16] [--steps 2000] [--repeat 3] [--clumps 1000]
+                                       [--superquadrics 300] [--sq-steps 20000] [--parts 1,2,3]
 """
 from __future__ import annotations
 
@@ -69,6 +74,24 @@ def pile(count: int, clumps: bool, steps: int) -> list:
     return commands + [{"command": "run", "steps": steps}]
 
 
+def superquadric_pile(count: int, blockiness: float | None, steps: int) -> list:
+    """count superquadrics of half-axes 2r, r, r and the given blockiness packed at random in a tall box (or, for
+    blockiness None, count spheres of radius r), settling."""
+    width = 0.03
+    height = 0.0012 * count / (width / 0.03) ** 2 + 0.02
+    region = {"shape": "box", "lo": [0.0, 0.0, 0.0], "hi": [width, width, height]}
+    commands = [{"command": "create", "object": "domain", "lo": [-0.01, -0.01, -0.01],
+                 "hi": [width + 0.01, width + 0.01, height + 0.01]}] + MATERIAL + box_walls(width)
+    if blockiness is None:
+        commands.append({"command": "create", "object": "random_packing", "type": 1, "radius": R, "count": count,
+                         "seed": 1, "region": region})
+    else:
+        commands.append({"command": "create", "object": "superquadric_packing", "type": 1,
+                         "half_axes": [2 * R, R, R], "blockiness": blockiness, "count": count, "seed": 1,
+                         "region": region})
+    return commands + [{"command": "run", "steps": steps}]
+
+
 def loop_cpu(engine_root: Path, commands: list) -> dict:
     """timing.json of one run of the scene by the engine under engine_root (one thread)."""
     with tempfile.TemporaryDirectory() as tmp:
@@ -89,7 +112,20 @@ def main():
     parser.add_argument("--steps", type=int, default=2000)
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--clumps", type=int, default=1000)
+    parser.add_argument("--superquadrics", type=int, default=300)
+    parser.add_argument("--sq-steps", type=int, default=20000, help="steps of part 3 (the pile settles in about 0.2 s)")
+    parser.add_argument("--parts", default="1,2,3", help="which parts to run (comma-separated)")
     args = parser.parse_args()
+    parts = {int(p) for p in args.parts.split(",")}
+    if 1 in parts:
+        spheres_against_base(args)
+    if 2 in parts:
+        clump_pile(args)
+    if 3 in parts:
+        superquadric_piles(args)
+
+
+def spheres_against_base(args):
     with tempfile.TemporaryDirectory() as tmp:
         base = Path(tmp)
         archive = subprocess.run(["git", "archive", args.base, "engine"], cwd=REPO, capture_output=True, check=True)
@@ -107,6 +143,9 @@ def main():
     print(f"  base {args.base}: {b:.2f} (runs {', '.join(f'{v:.2f}' for v in per['base'])})")
     print(f"  this tree:      {n:.2f} (runs {', '.join(f'{v:.2f}' for v in per['new'])})")
     print(f"  ratio this / base: {n / b:.3f}")
+
+
+def clump_pile(args):
     print(f"settling pile, {args.steps} steps, one thread")
     for clumps in (False, True):
         loop_cpu(REPO, pile(args.clumps, clumps, 10))
@@ -115,6 +154,15 @@ def main():
         bodies = spheres / 2 if clumps else spheres
         what = f"{args.clumps} clumps of 2 spheres" if clumps else f"{2 * args.clumps} spheres"
         print(f"  {what}: {spheres:.3g} sphere-steps per CPU s, {bodies:.3g} body-steps per CPU s")
+
+
+def superquadric_piles(args):
+    print(f"settling pile of {args.superquadrics} bodies (half-axes 2r, r, r), {args.sq_steps} steps, one thread")
+    for blockiness in (None, 2, 6):
+        loop_cpu(REPO, superquadric_pile(args.superquadrics, blockiness, 10))
+        t = loop_cpu(REPO, superquadric_pile(args.superquadrics, blockiness, args.sq_steps))
+        what = "spheres of radius r" if blockiness is None else f"superquadrics, n = {blockiness}"
+        print(f"  {what}: {t['particle_steps'] / t['cpu']:.3g} body-steps per CPU s")
 
 
 if __name__ == "__main__":

@@ -12,7 +12,7 @@ import sys
 
 import numpy as np
 
-from . import clump_commands, guards, memory, modifiers, quantities, regions, runner
+from . import clump_commands, guards, memory, modifiers, quantities, regions, runner, superquadric_commands
 from . import state as particle_state
 from .errors import InputError, RunFailure
 from .models import SUBMODELS, choices, coefficients, options
@@ -361,6 +361,7 @@ CREATE = {"domain": create_domain, "material": create_material, "interaction": c
           "lattice": create_lattice, "random_packing": create_random_packing, "modifier": create_modifier,
           "restart": create_restart, "region": create_region}
 CREATE.update(clump_commands.CREATE)
+CREATE.update(superquadric_commands.CREATE)
 SET = {"timestep": set_timestep, "skin": set_skin, "thermo": set_thermo, "timestep_check": set_timestep_check,
        "restart": set_restart, "velocity": set_velocity, "blowup": set_blowup}
 COMMANDS = {"create": create, "get": get, "set": set_property, "fix": fix, "unfix": unfix, "run": runner.run}

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from . import blowup
+from . import blowup, superquadrics
 from .contact_laws import effective_youngs_modulus
 from .errors import RunFailure
 from .quantities import OVERLAP_WARN_RATIO
@@ -29,7 +29,7 @@ def critical_timestep(sim):
     """
     s = sim.state
     if sim.n == 0:
-        return math.inf, math.inf
+        return superquadrics.critical_times(sim)
     ntypes = max(sim.materials)
     table = np.full((ntypes + 1, 3), np.nan)
     for t, (y_t, nu_t, rho_t) in sim.materials.items():
@@ -114,6 +114,19 @@ def check_finite(sim, where):
         if len(bad):
             raise RunFailure(f"{where}: non-finite {label} of particle {int(s.pid[bad[0]])} at step "
                              f"{sim.step}")
+
+
+def check_superquadrics(sim, where):
+    """Superquadrics: finite positions, velocities and angular momenta; no body with more contacts than its
+    history slots (engine/superquadrics.py SLOTS)."""
+    sq = sim.superquadrics
+    for label, array in (("position", sq.x), ("velocity", sq.v), ("angular momentum", sq.angmom)):
+        bad = np.nonzero(~np.all(np.isfinite(array), axis=1))[0]
+        if len(bad):
+            raise RunFailure(f"{where}: non-finite {label} of superquadric {int(sq.sid[bad[0]])} at step {sim.step}")
+    if sq.status[0]:
+        raise RunFailure(f"{where}: a superquadric had more than {superquadrics.SLOTS} contacts with bodies of "
+                         f"higher id by step {sim.step} (its contact history slots)")
 
 
 def report_lost(sim, lost, where: str, started_with: int):

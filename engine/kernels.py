@@ -26,7 +26,7 @@ from dataclasses import field, make_dataclass
 
 import numpy as np
 
-from . import clumps
+from . import clumps, superquadrics
 from .contact_laws import slip_velocity
 from .jit import cache_dir
 from .models import LAWS, PARAMETERS, SUBMODELS, options
@@ -97,16 +97,17 @@ class _CombinationLogic:
 
 #: Everything that changes the compiled code of a scene: a frozen dataclass with a field per kind of submodel
 #: (the law's name, models.SUBMODELS) and per option of the contact model (models.options), a flag per wall
-#: feature (walls.WALL_FEATURES), gravity, the periodic axes, clumps (multisphere bodies, engine/clumps.py; not
-#: in the repr, which the generated source quotes: generate_source names it only where set) and parallel (loops
-#: compiled for several threads)
+#: feature (walls.WALL_FEATURES), gravity, the periodic axes, clumps (multisphere bodies, engine/clumps.py) and
+#: superquadrics (engine/superquadrics.py; both not in the repr, which the generated source quotes:
+#: generate_source names them only where set) and parallel (loops compiled for several threads)
 Combination = make_dataclass(
     "Combination",
     [(kind, str, field(default=sub.default)) for kind, sub in SUBMODELS.items()]
     + [(name, bool, field(default=option.default)) for name, option in options().items()]
     + [(name, bool, field(default=False)) for name in WALL_FEATURES]
     + [("gravity", bool, field(default=False)), ("periodic", tuple, field(default=(False, False, False))),
-       ("clumps", bool, field(default=False, repr=False)), ("parallel", bool, field(default=False))],
+       ("clumps", bool, field(default=False, repr=False)), ("superquadrics", bool, field(default=False, repr=False)),
+       ("parallel", bool, field(default=False))],
     bases=(_CombinationLogic,), frozen=True)
 
 
@@ -402,7 +403,7 @@ if record:
 
 STEP_LOOP = '''\
 @njit(cache=True, error_model="numpy")
-def setup(s, n, nbr, mnbr, walls, pp, c, step, lost${bodies}):
+def setup(s, n, nbr, mnbr, walls, pp, c, step, lost${bodies}${sq}):
     """Fresh neighbor lists and forces for the current state (start of a run after the scene changed).
     Returns (particles kept, neighbor list, mesh contact list)."""
     ${constants}
@@ -418,11 +419,12 @@ def setup(s, n, nbr, mnbr, walls, pp, c, step, lost${bodies}):
                   0.0, plane_near)
     ${body_setup}
     ${wall_force_sum}
+    ${sq_setup}
     return n, nbr, mnbr
 
 
 @njit(cache=True, error_model="numpy")
-def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost${bodies}):
+def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost${bodies}${sq}):
     """nsteps Velocity-Verlet steps (fix nve/sphere order) of the first n particles of state s. Returns
     (status, bad particle, steps done, rebuilds, particles kept, neighbor list, mesh contact list); status 1 =
     non-finite position. timers += [neigh, pair, modify] in s."""
@@ -439,6 +441,7 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost${bodies
     ${wall_start}
     need, first_bad = drift_pass(s, n, dt, half_skin_sq, gravity)
     ${body_start}
+    ${sq_start}
     neigh = 0.0
     pair = 0.0
     modify = now() - t0
@@ -466,6 +469,7 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost${bodies
                                         wall_part, wall_tpart, half_skin_sq, plane_near)
         ${body_step}
         ${wall_force_sum}
+        ${sq_step}
         t4 = now()
         neigh += t2 - t1
         pair += t3 - t2
@@ -625,7 +629,12 @@ def _step_loop(c: Combination, parts: list) -> str:
                   wall_force_sum=WALL_FORCE_SUM if c.has_walls else "",
                   # clumps (engine/clumps.py): the bodies' pass follows the particles'; none in a scene of spheres
                   bodies=", bodies" if c.clumps else "", body_setup=clumps.BODY_SETUP if c.clumps else None,
-                  body_start=clumps.BODY_START if c.clumps else None, body_step=clumps.BODY_STEP if c.clumps else None)
+                  body_start=clumps.BODY_START if c.clumps else None, body_step=clumps.BODY_STEP if c.clumps else None,
+                  # superquadrics (engine/superquadrics.py): their pass after the particles'; none in other scenes
+                  sq=superquadrics.ARGUMENTS if c.superquadrics else "",
+                  sq_setup=superquadrics.SETUP if c.superquadrics else None,
+                  sq_start=superquadrics.START if c.superquadrics else None,
+                  sq_step=superquadrics.STEP if c.superquadrics else None)
 
 
 def generate_source(c: Combination) -> str:
@@ -639,9 +648,13 @@ def generate_source(c: Combination) -> str:
     called += [fn for part in parts for fn in part.calls]
     if c.clumps:
         called.append(clumps.body_pass)
+    if c.superquadrics:
+        called.append(superquadrics.superquadric_pass)
     imports = "".join(f"from {fn.__module__} import {fn.__name__}\n" for fn in called if fn.__name__ + "(" in body)
-    # the clumps flag is named only where set: a scene of spheres has the source of an engine without clumps
-    source = render(MODULE, combination=repr(c) + (" with clumps" if c.clumps else ""), imports=imports, pair_forces=pair_forces,
+    # the clumps and superquadrics flags are named only where set: a scene of spheres has the source of an
+    # engine without them
+    named = "".join(f" with {flag}" for flag in ("clumps", "superquadrics") if getattr(c, flag))
+    source = render(MODULE, combination=repr(c) + named, imports=imports, pair_forces=pair_forces,
                     particle_pass=particle_pass, clear_forces=clear_forces, step_loop=step_loop,
                     wall_functions="".join(part.functions for part in parts))
     # one thread: the loops compiled serially (prange is range there)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import quantities
+from . import quantities, superquadrics
 from .errors import RunFailure, output_failure
 from .writers import CsvSeries, write_vtp
 
@@ -89,3 +89,5 @@ def write_vtk(sim, folder: str, prefix: str):
               # clump members: the id of their body (engine/clumps.py), 0 for a free sphere
               extra={} if sim.bodies is None else {"body": sim.bodies.bid[np.maximum(
                   sim.bodies.member_body[s.pid[order]], 0)] * (sim.bodies.member_body[s.pid[order]] >= 0)})
+    if sim.superquadrics is not None:  # a point per body, with its orientation and shape (engine/superquadrics.py)
+        superquadrics.write_vtk(sim, folder, prefix)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import clumps, regions
+from . import clumps, regions, superquadrics
 from .errors import InputError
 from .neighbor import overlap_statistics
 from .script import AXES
@@ -47,6 +47,8 @@ def overlaps(sim):
 
 
 def _ke(sim, mask=slice(None)):
+    if sim.superquadrics is not None and isinstance(mask, slice):  # all of a scene of superquadrics, which has
+        return superquadrics.kinetic_energy(sim)  # no spheres (engine/superquadrics.py); selections pick spheres
     if sim.bodies is not None:  # a clump counts as its body (engine/clumps.py)
         return clumps.kinetic_energy(sim, mask)
     s = sim.state
@@ -54,6 +56,8 @@ def _ke(sim, mask=slice(None)):
 
 
 def _rke(sim, mask=slice(None)):
+    if sim.superquadrics is not None and isinstance(mask, slice):
+        return superquadrics.rotational_energy(sim)
     if sim.bodies is not None:
         return clumps.rotational_energy(sim, mask)
     s = sim.state
@@ -62,14 +66,18 @@ def _rke(sim, mask=slice(None)):
 
 
 def _pe(sim):
-    if sim.bodies is not None:
-        mass, x, _ = clumps.masses_and_positions(sim)
+    if sim.bodies is not None or sim.superquadrics is not None:
+        mass, x, _ = _bodies(sim)
         return float(-np.sum(mass * (x @ sim.gravity_vector())))
     return float(-np.sum(sim.state.mass * (sim.state.x @ sim.gravity_vector())))
 
 
 def _bodies(sim):
-    """(masses, positions, velocities): of the particles, or of the free spheres and clump bodies."""
+    """(masses, positions, velocities): of the particles, or of the free spheres and clump bodies, or of the
+    superquadrics."""
+    if sim.superquadrics is not None:
+        sq = sim.superquadrics
+        return sq.mass, sq.x, sq.v
     if sim.bodies is not None:
         return clumps.masses_and_positions(sim)
     return sim.state.mass, sim.state.x, sim.state.v
@@ -98,7 +106,8 @@ def _selected_mass(sim, mask):
 GLOBAL = {
     "step": Quantity("-", "time step number", lambda sim: sim.step),
     "time": Quantity("s", "simulated time", lambda sim: sim.time),
-    "atoms": Quantity("-", "number of particles", lambda sim: sim.n),
+    "atoms": Quantity("-", "number of particles (spheres, clump members or superquadrics)",
+                      lambda sim: sim.n + superquadrics.count(sim)),
     "ke": Quantity("J", "translational kinetic energy, sum of m v^2 / 2", _ke),
     "rke": Quantity("J", "rotational kinetic energy, sum of I w^2 / 2 with I = 0.4 m r^2", _rke),
     "pe": Quantity("J", "gravitational potential energy, -sum of m x.g", _pe),
@@ -159,10 +168,13 @@ def selection(name: str):
 
 #: per clump: body_NAME[ID] (engine/clumps.py BODY_QUANTITIES), ID the body id from 1
 BODY_QUANTITY = re.compile(r"^body_(%s)\[(\d+)\]$" % "|".join(clumps.BODY_QUANTITIES))
+#: per superquadric: sq_NAME[ID] (engine/superquadrics.py QUANTITIES), ID its id from 1
+SQ_QUANTITY = re.compile(r"^sq_(%s)\[(\d+)\]$" % "|".join(superquadrics.QUANTITIES))
 
 
 def known(name: str) -> bool:
     return (name in GLOBAL or BODY_QUANTITY.match(name) is not None or PARTICLE_QUANTITY.match(name) is not None
+            or SQ_QUANTITY.match(name) is not None
             or WALL_QUANTITY.match(name) is not None
             or selection(name) is not None or MODIFIER_QUANTITY.match(name) is not None)
 
@@ -235,6 +247,9 @@ def evaluate(sim, name: str):
     m = BODY_QUANTITY.match(name)
     if m:
         return clumps.body_value(sim, m.group(1), int(m.group(2)))
+    m = SQ_QUANTITY.match(name)
+    if m:
+        return superquadrics.value(sim, m.group(1), int(m.group(2)))
     if name in GLOBAL:
         return GLOBAL[name].value(sim)
     raise KeyError(name)

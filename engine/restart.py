@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import clumps
+from . import clumps, superquadrics
 from . import state as particle_state
 from .errors import InputError, output_failure
 from .mesh import MeshList
@@ -39,7 +39,7 @@ def write_restart(sim, path: str):
                      modifier_state=json.dumps(modifier_state(sim)),
                      **particle_state.as_arrays(sim.state),
                      **{key: getattr(sim.nbr, name) for key, name in NEIGHBOR_ARRAYS.items()},
-                     **clumps.restart_arrays(sim))
+                     **clumps.restart_arrays(sim), **superquadrics.restart_arrays(sim))
     except OSError as exc:
         raise output_failure("restart file", path, exc) from None
     sim.log.info(f"wrote restart file {path} at step {sim.step}")
@@ -101,6 +101,7 @@ def read_restart(sim, path: str, fields: Fields):
     try:
         states = _modifier_states(data)
         clumps.restore(sim, data)
+        superquadrics.restore(sim, data)
     except ValueError as exc:
         raise fields.error("file", f"{path} is not a consistent restart file: {exc}") from None
     for w in walls:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 import numpy as np
 
-from . import blowup, guards, modifiers, quantities
+from . import blowup, guards, modifiers, quantities, superquadrics
 from . import threads as thread_pool
 from . import state as particle_state
 from .errors import RunFailure
@@ -33,7 +33,7 @@ def combination(sim, parallel: bool = False) -> Combination:
     return Combination(parallel=parallel, **model, **wall_features(sim.walls),
                        gravity=any(mod.acceleration() is not None for mod in sim.active_modifiers()),
                        periodic=tuple(bool(p) for p in sim.periodic),
-                       clumps=sim.bodies is not None)
+                       clumps=sim.bodies is not None, superquadrics=sim.superquadrics is not None)
 
 
 def steps_of(fields: Fields) -> int:
@@ -49,7 +49,11 @@ def check_ready(sim, fields: Fields):
         raise fields.error("steps", "cannot run: no time step (set property timestep first)")
     if sim.model is None:
         raise fields.error("steps", "cannot run: no contact model (create a contact_model first)")
+    problem = superquadrics.problem(sim)
+    if problem:
+        raise fields.error("steps", f"cannot run: {problem}")
     used = sorted(set((sim.state.ptype + 1).tolist()) | {w["type"] for w in sim.walls}
+                  | set((sim.superquadrics.ptype + 1).tolist() if sim.superquadrics is not None else [])
                   | {t for mod in sim.active_modifiers() for t in mod.particle_types()})
     for a in used:
         for b in used:
@@ -82,7 +86,7 @@ def check_ready(sim, fields: Fields):
             raise fields.error("steps", f"cannot run: quantity '{q}' names particle {m.group(2)}, which does not "
                                f"exist (ids so far: " + (f"1 ... {sim.next_id - 1}" if sim.next_id > 1 else "none")
                                + "; no insert modifier is fixed)")
-    if sim.n == 0 and not inserting:
+    if sim.n == 0 and not inserting and not superquadrics.count(sim):
         for q in requested:
             if q.startswith("com_"):
                 raise fields.error("steps", f"cannot run: quantity '{q}' has no value without particles "
@@ -143,6 +147,9 @@ class _Kernel:
             sim.wall_force = np.zeros((len(sim.walls), 3))
             sim.wall_torque = np.zeros((len(sim.walls), 3))
         self.walls = wall_set(sim)
+        if self.combo.superquadrics:
+            superquadrics.fit_walls(sim)
+            self.sq_laws = superquadrics.laws(sim)
         self.constants = Constants(dt=sim.dt, characteristic_velocity=sim.model["characteristic_velocity"],
                                    gravity=sim.gravity_vector(), lo=sim.lo, hi=sim.hi, periodic=sim.periodic,
                                    skin=sim.skin, history_transfer=np.array(self.combo.history_transfer(),
@@ -150,8 +157,10 @@ class _Kernel:
 
     def bodies(self, sim) -> tuple:
         """The trailing arguments of the kernels of clump scenes: the bodies (engine/clumps.py), read from sim at
-        each call (inserting clumps mid-run replaces the bodies' arrays); none for a scene of spheres."""
-        return (sim.bodies,) if self.combo.clumps else ()
+        each call (inserting clumps mid-run replaces the bodies' arrays); of superquadric scenes, the bodies and
+        their contact laws (engine/superquadrics.py); none for a scene of spheres."""
+        return (((sim.bodies,) if self.combo.clumps else ())
+                + ((sim.superquadrics, self.sq_laws) if self.combo.superquadrics else ()))
 
     def setup(self, sim, lost):
         """Fresh neighbor lists and forces for sim's state (kernels.STEP_LOOP setup)."""
@@ -222,7 +231,7 @@ def _chunk(sim, fields: Fields, kernel: _Kernel, progress: _Progress, stop: int,
     status, bad, done, rebuilt, kept, sim.nbr, sim.mesh_nbr = kernel.steps(sim, stop - sim.step, progress.timers,
                                                                           lost)
     sim.state = particle_state.trimmed(sim.state, kept)
-    progress.particle_steps += done * n
+    progress.particle_steps += done * (n + superquadrics.count(sim))
     progress.rebuilds += rebuilt
     sim.step += done
     sim.time = start_time + (sim.step - start_step) * sim.dt
@@ -232,6 +241,8 @@ def _chunk(sim, fields: Fields, kernel: _Kernel, progress: _Progress, stop: int,
                          f"step {sim.step}")
     guards.report_lost(sim, lost, fields.where, started_with)
     guards.check_finite(sim, fields.where)
+    if kernel.combo.superquadrics:
+        guards.check_superquadrics(sim, fields.where)
     _, n_large, worst = quantities.overlaps(sim)
     progress.max_overlap = max(progress.max_overlap, worst)
     if n_large and not progress.overlap_warned:
@@ -255,10 +266,10 @@ def _report(sim, steps: int, threads: int, progress: _Progress, total: float, cp
     t["total"] += total
     t["cpu"] += cpu
     t["steps"] += steps
-    t["particles"] = sim.n
+    t["particles"] = sim.n + superquadrics.count(sim)
     t["particle_steps"] += particle_steps
     rate = particle_steps / total if total > 0 else 0.0
-    sim.log.info(f"Loop time of {total:.6g} s for {steps} steps with {sim.n} particles "
+    sim.log.info(f"Loop time of {total:.6g} s for {steps} steps with {t['particles']} particles "
                  f"({rate:.4g} particle-steps/s); pair {timers[1]:.4g} s, neigh {timers[0]:.4g} s "
                  f"({progress.rebuilds} rebuilds), modify {timers[2]:.4g} s; max overlap "
                  f"{progress.max_overlap:.2%} of radius; particles lost so far {sim.lost_total}; cpu {cpu:.6g} s "

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import blowup, commands, modifiers
+from . import blowup, commands, modifiers, superquadrics
 from . import threads as thread_pool
 from . import state as particle_state
 from .log import Log
@@ -53,6 +53,7 @@ class Simulation:
         self.next_id = 1
         self.clump_templates: dict = {}  # name -> engine.clumps.Template
         self.bodies = None  # engine.clumps.Bodies once a scene has clumps
+        self.superquadrics = None  # engine.superquadrics.Superquadrics once a scene has superquadrics
         self.modifiers: dict[str, modifiers.Modifier] = {}
         self.active: list[str] = []  # fixed modifiers, in the order they were fixed
         self.modifier_state: dict[str, dict] = {}  # modifier name -> counters read from a restart file
@@ -88,7 +89,8 @@ class Simulation:
 
     def total_line(self) -> str:
         """The log's last line after a successful script."""
-        return (f"total: {self.timing['steps']} steps, {self.n} particles, {self.lost_total} lost, "
+        return (f"total: {self.timing['steps']} steps, {self.n + superquadrics.count(self)} particles, "
+                f"{self.lost_total} lost, "
                 f"{self.log.warnings} warning(s)")
 
     def close(self):
