@@ -15,6 +15,7 @@ from harness.analysis.consistency import compare_runs
 from harness.analysis.matrix import QUANTITIES, _c, _short
 from harness.analysis.regressions import histories
 from harness.store.models import Run, Series
+from harness.store.rules import speed_kind
 from webfrontend import plots
 from webfrontend.runfiles import RECORD_NAME
 
@@ -37,17 +38,11 @@ def commit_link(build, commit_url: str | None) -> dict:
             "url": commit_url.replace("{commit}", build.commit) if commit_url else None}
 
 
-#: a stepping-time change smaller than this share is not marked slower or faster (the smallest change
-#: harness.analysis.regressions.speed_changes reports)
-SPEED_MARK = 0.1
-
-
 def speed_change(ratio: float, noise: float = 0.0) -> dict:
     """A stepping-time ratio (now / before) for a page: "+12 %" slower, "-8 %" faster, and which; marked only
-    beyond ``SPEED_MARK`` and beyond ``noise``, the measured spread of repeated runs (relative)."""
-    mark = max(SPEED_MARK, noise)
-    kind = "slower" if ratio - 1.0 >= mark else "faster" if 1.0 - ratio >= mark else "same"
-    return {"text": f"{(ratio - 1.0) * 100.0:+.0f} %", "kind": kind,
+    beyond the measured spread of repeated runs ``noise`` (relative), by the rule of
+    ``harness.store.rules.speed_kind``."""
+    return {"text": f"{(ratio - 1.0) * 100.0:+.0f} %", "kind": speed_kind(ratio, noise),
             "noise": f"{noise * 100:.0f} %" if noise else ""}
 
 

@@ -99,6 +99,8 @@ def _needs_run(existing, options: RunOptions) -> bool:
         return True
     if state == "failed":
         return options.rerun_failed or existing.failure_reason in ("interrupted", "dependency")
+    if options.repeat > 1 and len((existing.timing or {}).get("stepping_repeats") or []) < options.repeat:
+        return True  # --repeat N: a run stored with fewer stepping times runs again
     return options.profile and not existing.profile  # --profile: a run recorded without one runs again
 
 

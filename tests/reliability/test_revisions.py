@@ -142,7 +142,8 @@ def test_speed_detector_marks_a_step_and_ignores_noise():
 
 
 def test_a_speed_change_inside_the_spread_of_repeated_runs_is_not_marked():
-    from harness.analysis.regressions import relative_spread, speed_changes
+    from harness.analysis.regressions import speed_changes
+    from harness.store.rules import relative_spread
 
     times = [1.0, 1.0, 1.0, 1.0, 1.0, 1.3]
     assert [i for i, _ in speed_changes(times)] == [5]                         # no repeats: a 30 % step

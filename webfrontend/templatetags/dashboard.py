@@ -2,6 +2,7 @@
 from django import template
 from django.conf import settings
 
+from harness.analysis.compare import SPEED_WORDS
 from harness.report.glossary import ALL, define
 from webfrontend.presentation import TIMING_CATEGORIES
 from webfrontend.presentation import provenance as facts
@@ -101,6 +102,12 @@ def compare_limit():
 def speed_change(speed):
     """'+12 %' (slower) or '-8 %' (faster) of a stepping-time change (harness.store.queries.stepping_changes)."""
     return change(speed["ratio"], speed.get("noise") or 0.0)
+
+
+@register.filter
+def speed_word(kind):
+    """"slower", "faster" or "no speed change" (harness.store.rules.speed_kind), as ``harness compare`` says it."""
+    return SPEED_WORDS.get(kind, kind)
 
 
 VERDICT_LABELS = {"passed": "passed", "failed": "failed", "not_run": "not run"}
