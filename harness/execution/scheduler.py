@@ -34,6 +34,7 @@ from harness.execution import profiles
 from harness.execution.builds import DONE_MARKER, BuildError, build_target, failed_build, record_current_build
 from harness.execution.planning import build_info, make_spec
 from harness.execution.workspace import workspace
+from harness.report.textout import fit_line, wrap
 from harness.report.textout import format_table  # noqa: F401  (the commands import it from here)
 from harness.store.records import store_record
 from harness.store.rules import SUCCESS_STATES, effective_state
@@ -147,7 +148,7 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
                 Run.objects.filter(machine__name=options.machine, build=build).select_related("testcase")}
     if adapter.first_run_note and not any(r.stepping_time or r.state in SUCCESS_STATES for r in existing.values()):
         # a new build sits silent for a while before its first run reports (the bundled engine: kernels)
-        say(f"{target.name}@{build.commit[:10]}: first runs of this build: {adapter.first_run_note}")
+        say(wrap(f"{target.name}@{build.commit[:10]}: first runs of this build: {adapter.first_run_note}", ""))
     tasks: dict[tuple, Task] = {}
 
     def add(testcase: TestCaseSpec, entry: RunEntry, force: bool = False) -> None:
@@ -254,12 +255,14 @@ class _Pool:
 
 
 def _progress(done: int, total: int, record: RunRecord, out) -> None:
-    reason = f" ({record.failure_reason}: {record.failure_message[:120]})" if record.failed else ""
+    """A line as a run ends, in the CLI's width (``harness.report.textout.fit_line``: the failure message is
+    cut first, then the run's name in its middle; ``harness check -v`` prints the message whole)."""
+    reason = f" ({record.failure_reason}: {record.failure_message})" if record.failed else ""
     wall = f" {record.wall_time:.2f} s" if record.wall_time is not None else ""
     width = 20
     bar = "#" * (width * done // max(total, 1))
-    out.write(f"[{bar:<{width}}] {done}/{total} {record.target} {record.testcase}/{record.run}: "
-              f"{record.state}{reason}{wall}\n")
+    out.write(fit_line(f"[{bar:<{width}}] {done}/{total} ", f"{record.target} {record.testcase}/{record.run}",
+                       f": {record.state}", reason, wall) + "\n")
     out.flush()
 
 
@@ -283,7 +286,8 @@ def _claim(task: Task, options: RunOptions, waiting: set, out) -> str:
     except Timeout:
         if task.key not in waiting:
             waiting.add(task.key)
-            out.write(f"waiting for another harness process running {task.key[0]} {task.key[1]}/{task.key[2]} ...\n")
+            out.write(fit_line("waiting for another harness process running ",
+                               f"{task.key[0]} {task.key[1]}/{task.key[2]}", " ...") + "\n")
             out.flush()
         return "busy"
     # Another process may have run it since this one planned it: one that held the lock while this one
@@ -313,7 +317,8 @@ def _started(task: Task, since: float, done: int, total: int, durations: list, s
         estimate = sum(durations) / len(durations) * (total - done) / max(slots, 1)
         left = f", about {_duration(estimate)} left"
     target, testcase, run, commit = task.key
-    out.write(f"start {target}@{commit[:10]} {testcase}/{run} ({_duration(elapsed)} elapsed{left})\n")
+    out.write(fit_line("start ", f"{target}@{commit[:10]} {testcase}/{run}", f" ({_duration(elapsed)} elapsed{left})")
+              + "\n")
     out.flush()
 
 

@@ -53,6 +53,11 @@ def test_tables_fit_120_columns_and_messages_are_whole_on_request(project, capsy
     # the first runs of each new build say why they are slow to start
     assert out.err.count("first runs of this build: the engine compiles its kernels") == 2
     assert widest(out.out) <= 120
+    # progress lines too: the run's name is cut in its middle, its end (the run name) kept
+    assert widest(out.err) <= 120 and "…" in out.err and "a_long_run_configuration_name: post_processed" in out.err
+    assert harness(project, "--wide", "run", "development_branch", "--all", "--no-reference") == 0
+    wide = capsys.readouterr().err
+    assert widest(wide) > 120 and f"development_branch {CASE}/a_long_run_configuration_name: post_processed" in wide
 
     assert harness(project, "check") == 1
     out = capsys.readouterr().out
@@ -125,3 +130,25 @@ def test_repeat_keeps_every_stepping_time(project, capsys):
     # without --repeat: one stepping time, no repeats
     assert harness(project, "run", "development_branch", "--no-reference") == 0
     assert "stepping_repeats" not in Run.objects.get(target__name="development_branch").timing
+
+
+def test_a_progress_line_cuts_the_message_first_then_the_name_in_its_middle():
+    from harness.report import textout
+
+    before, name, after, end = "[####] 3/9 ", "dem testcases/walls/sliding_block/run", ": failed", " 1.20 s"
+    detail = " (nonzero_exit: ERROR: lost atoms: original 1000 current 998)"
+    try:
+        textout.set_width(100)                                              # the message is cut, not the name
+        line = textout.fit_line(before, name, after, detail, end)
+        assert len(line) == 100 and name in line and "(nonzero_exit: ERROR: lost atoms:" in line
+        textout.set_width(70)          # the message keeps its first 24 characters, the name is cut in its middle
+        line = textout.fit_line(before, name, after, detail, end)
+        assert len(line) == 70 and line.startswith(before + "dem testc…") and "_block/run: failed" in line
+        assert line.endswith(" (nonzero_exit: ERROR: …" + end)
+        textout.set_width(40)                         # narrow: the name keeps 10 characters, the message the rest
+        line = textout.fit_line(before, name, after, detail, end)
+        assert len(line) == 40 and "k/run: failed (n…" + end in line
+        textout.set_width(None)
+        assert textout.fit_line(before, name, after, detail, end) == before + name + after + detail + end
+    finally:
+        textout.set_width(textout.DEFAULT_WIDTH)
