@@ -17,7 +17,8 @@ from harness.execution import profiles
 from harness.store.models import Build, Machine, Run, Target, TestCase
 from webfrontend import params, plots
 
-#: colours of the sections, in harness.analysis.breakdown.SECTIONS order (those of the timing bars, parts/timing.html)
+#: colours of the sections, in harness.analysis.breakdown.SECTIONS order (the stacked bars of parts/timing.html,
+#: the breakdown page and the table's swatches)
 SECTION_COLORS = dict(zip(bd.SECTIONS, ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#7f7f7f")))
 #: commits one breakdown page draws at most per run name (the newest)
 BREAKDOWN_COMMITS = 200
@@ -30,14 +31,19 @@ def section_bar(breakdown: dict, scale: float) -> list[dict]:
             for name, value in seconds.items() if value > 0 and scale > 0]
 
 
+def timed(runs) -> list:
+    """The runs that have a timing breakdown (``harness.analysis.breakdown.of_run``): the others draw no bar."""
+    return [r for r in runs if bd.of_run(r)]
+
+
 def breakdown_rows(runs) -> list[dict]:
     """Per run: its stacked bar (one scale for all, so a slower run has a longer bar), the sections with
     min/avg/max over ranks, ranks and load imbalance."""
-    totals = [(r.breakdown or {}).get("total") or sum(bd.section_seconds(r.breakdown or {}).values()) for r in runs]
+    data = [bd.of_run(r) for r in runs]
+    totals = [d.get("total") or sum(bd.section_seconds(d).values()) for d in data]
     scale = max(totals, default=0.0)
     rows = []
-    for run, total in zip(runs, totals):
-        data = run.breakdown or {}
+    for run, total, data in zip(runs, totals, data):
         sections = data.get("sections", {})
         rows.append({"run": run, "total": total, "width": 100.0 * total / scale if scale else 0.0,
                      "segments": section_bar(data, scale), "ranks": data.get("ranks"),
@@ -182,7 +188,7 @@ def profile_diff_json(request):
 def breakdown_context(runs) -> dict:
     """What parts/breakdown_table.html shows for runs of a run or comparison page (with the link to the
     differential flame graph when exactly two profiled runs are compared)."""
-    runs = [r for r in runs if r.breakdown]
+    runs = timed(runs)
     diff_url = None
     if len(runs) == 2 and all(r.profile for r in runs):
         diff_url = reverse("profile-diff") + f"?run={runs[0].pk},{runs[1].pk}"

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import difflib
 import json
-from dataclasses import dataclass
 
 from django.urls import reverse
 from django.utils.http import urlencode
@@ -19,9 +18,6 @@ from harness.store.rules import speed_kind
 from webfrontend import plots
 from webfrontend.runfiles import RECORD_NAME
 
-#: timing categories of the breakdown (thesis figure 4.8), in stacking order, with their colors
-TIMING_CATEGORIES = (("pair", "#1f77b4"), ("neigh", "#ff7f0e"), ("comm", "#2ca02c"),
-                     ("modify", "#9467bd"), ("output", "#8c564b"), ("other", "#7f7f7f"))
 #: lines of a unified diff shown at most (the rest is summarized)
 DIFF_LINE_LIMIT = 5000
 
@@ -96,44 +92,6 @@ def run_label(run) -> str:
 def short_label(run) -> str:
     """Run name for legends and bars: id, target and revision (the id tells test cases apart)."""
     return f"#{run.pk} {run.target.name}@{revision_label(run.build)}"
-
-
-def timing_total(run) -> float:
-    timing = run.timing if isinstance(run.timing, dict) else {}
-    total = timing.get("total")
-    if isinstance(total, (int, float)) and total > 0:
-        return float(total)
-    return float(sum(v for k, v in timing.items() if k != "total" and isinstance(v, (int, float))))
-
-
-@dataclass
-class Segment:
-    category: str
-    seconds: float
-    percent: float  # of the bar's scale
-    color: str
-
-
-def timing_bar(run, scale: float | None = None) -> dict:
-    """Stacked bar of the timing breakdown in s; ``scale`` (s) is the full bar width, default the run's total.
-
-    Compared runs share one scale, so a faster run has a shorter bar (thesis 4.6.2, figure 4.9).
-    """
-    timing = run.timing if isinstance(run.timing, dict) else {}
-    total = timing_total(run)
-    scale = scale or total
-    segments = []
-    for category, color in TIMING_CATEGORIES:
-        seconds = timing.get(category) or 0.0
-        if isinstance(seconds, (int, float)) and seconds > 0 and scale > 0:
-            segments.append(Segment(category, float(seconds), 100.0 * seconds / scale, color))
-    return {"run": run, "label": short_label(run), "title": run_label(run), "total": total, "segments": segments,
-            "width": 100.0 * total / scale if scale else 0.0}
-
-
-def timing_bars(runs) -> list[dict]:
-    scale = max((timing_total(r) for r in runs), default=0.0)
-    return [timing_bar(r, scale) for r in runs]
 
 
 def unified_diff(a_name: str, a_text: str | None, b_name: str, b_text: str | None) -> list[tuple[str, str]]:

@@ -309,9 +309,9 @@ class RunDetailTest(DashboardTest):
         self.assertIn(f"stdout of run {run.pk}", html)
         self.assertIn("faster neighbor list", html)                            # build information
         self.assertIn("c" * 40, html)
-        for category in ("pair", "neigh", "comm", "modify", "output", "other"):
+        for category in ("pair", "neighbor", "communication", "modify", "output", "other"):  # the breakdown's words
             self.assertIn(f"title=\"{category}:", html)
-        self.assertIn("pair: 0.400 s", html)
+        self.assertIn("pair: 0.4000 s", html)
         self.assertIn("post/dump_100.vtp", html)
         self.assertIn(f'data-plots="/runs/{run.pk}/plots.json"', html)
         specs = json.loads(self.get(f"/runs/{run.pk}/plots.json").content)["plots"]
@@ -405,8 +405,8 @@ class CompareTest(DashboardTest):
         a, b = self.s["reference"], self.s["inconsistent"]
         html = self.get(f"/compare/?run={a.pk}&run={b.pk}").content.decode()
         self.assertIn("Comparison of 2 runs", html)
-        self.assertIn("pair: 0.800 s", html)
-        self.assertIn("pair: 0.400 s", html)
+        self.assertIn("pair: 0.8000 s", html)
+        self.assertIn("pair: 0.4000 s", html)
         self.assertIn('<div class="del">-{&quot;run&quot;: 2000, &quot;dt&quot;: 1e-5}</div>', html)
         self.assertIn('<div class="add">+{&quot;run&quot;: 2000, &quot;dt&quot;: 2e-5}</div>', html)
         self.assertIn("run configuration: identical", html)
@@ -450,6 +450,18 @@ class CompareTest(DashboardTest):
         html = self.get(f"/compare/?run={self.s['older'].pk}&run={self.s['inconsistent'].pk}").content.decode()
         widths = re.findall(r'class="stack" style="width: ([\d.]+)%"', html)
         self.assertEqual(widths, ["100.0", "55.0"])  # 1.1 s of 2.0 s
+
+    def test_a_run_with_a_breakdown_and_no_timing_draws_its_time(self):
+        """Runs imported from another machine may carry the breakdown only: the bars read it (not 0 s)."""
+        older = self.s["older"]
+        Run.objects.filter(pk=older.pk).update(timing={}, breakdown={
+            "sections": {"pair": {"avg": 3.0, "min": 2.5, "max": 3.5}, "neighbor": {"avg": 1.0}}, "total": 4.0,
+            "ranks": 2, "imbalance": 3.5 / 3.0, "imbalance_of": "pair time"})
+        html = self.get(f"/compare/?run={older.pk}&run={self.s['inconsistent'].pk}").content.decode()
+        self.assertIn(f'#{older.pk} dem-master@', html)
+        self.assertIn('<span class="note">4.000 s</span>', html)
+        self.assertEqual(re.findall(r'class="stack" style="width: ([\d.]+)%"', html), ["100.0", "27.5"])
+        self.assertIn('title="pair: 3.0000 s"', html)
 
     def test_nothing_selected(self):
         self.assertIn("Select two or more runs", self.get("/compare/").content.decode())

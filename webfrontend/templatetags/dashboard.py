@@ -4,7 +4,6 @@ from django.conf import settings
 
 from harness.analysis.compare import SPEED_WORDS
 from harness.report.glossary import ALL, define
-from webfrontend.presentation import TIMING_CATEGORIES
 from webfrontend.presentation import provenance as facts
 from webfrontend.presentation import speed_change as change
 
@@ -65,11 +64,6 @@ def category_label(value):
 @register.filter
 def c_value(value):
     return "-" if value is None else f"{value:.4f}"
-
-
-@register.simple_tag
-def timing_categories():
-    return TIMING_CATEGORIES
 
 
 @register.filter
