@@ -4,13 +4,10 @@ The store is filled through the ORM; profiles are real folded-stack files in run
 from __future__ import annotations
 
 import re
-import shutil
-import tempfile
 import time
 from datetime import datetime, timedelta, timezone
-from pathlib import Path
 
-from django.test import TestCase
+from dashboard_data import FolderTestCase
 
 from harness.analysis import scaling
 from harness.store.models import Build, Machine, Run, Target
@@ -31,10 +28,11 @@ def breakdown(pair: float, neighbor: float, ranks: int = 1, spread: float = 0.0)
             "imbalance": (pair + spread) / pair if spread else None, "imbalance_of": "pair time" if spread else ""}
 
 
-class EfficiencyPagesTest(TestCase):
+class EfficiencyPagesTest(FolderTestCase):
+    folder_prefix = "efficiency-pages-"
+
     @classmethod
     def setUpTestData(cls):
-        cls.root = Path(tempfile.mkdtemp(prefix="efficiency-pages-"))
         machine = Machine.objects.create(name="ws")
         cls.target = target = Target.objects.create(name="lig")
         cls.case = case = Case.objects.create(path="liggghts/settling")
@@ -59,11 +57,6 @@ class EfficiencyPagesTest(TestCase):
                 machine=machine, target=target, build=build, testcase=case, name="serial", state="post_processed",
                 config={"name": "serial"}, stepping_time=pair + 0.6, breakdown=breakdown(pair, 0.5),
                 folder=str(folder), profile="profile.folded"))
-
-    @classmethod
-    def tearDownClass(cls):
-        shutil.rmtree(cls.root, ignore_errors=True)
-        super().tearDownClass()
 
     def test_scaling_page_shows_the_figures_and_the_efficiency_over_commits(self):
         html = self.client.get("/scaling/").content.decode()

@@ -3,14 +3,12 @@ from __future__ import annotations
 
 import json
 import re
-import shutil
-import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from dashboard_data import add_bulk_runs, make_store
+from dashboard_data import StoreTestCase, add_bulk_runs
 from django.db import connection
-from django.test import Client, TestCase
+from django.test import Client
 from django.test.utils import CaptureQueriesContext
 
 from harness.store.models import Override, Run
@@ -18,16 +16,8 @@ from harness.store.models import Override, Run
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
-class DashboardTest(TestCase):
-    @classmethod
-    def setUpTestData(cls):
-        cls.root = Path(tempfile.mkdtemp(prefix="dashboard-runs-"))
-        cls.s = make_store(cls.root)
-
-    @classmethod
-    def tearDownClass(cls):
-        super().tearDownClass()
-        shutil.rmtree(cls.root, ignore_errors=True)
+class DashboardTest(StoreTestCase):
+    folder_prefix = "dashboard-runs-"
 
     def get(self, url, **kw):
         response = self.client.get(url, **kw)
