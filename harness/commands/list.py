@@ -4,6 +4,7 @@ Exit code 5 when a selection (targets, state, pattern) matches no run."""
 import json
 
 from harness.adapters.base import UserError
+from harness.report.glossary import level_word
 from harness.store import setup_store
 
 NAME = "list"
@@ -69,7 +70,8 @@ def run(args) -> int:
                  "wall s", "stepping s")]
         for r in selected:
             rows.append((r.machine.name, r.target.name, r.build.commit[:10], r.testcase.path, r.name,
-                         r.short_hash or "-", r.state, r.failure_reason or "", r.consistency or "",
+                         r.short_hash or "-", r.get_state_display(), r.failure_reason or "",
+                         level_word(r.consistency) if r.consistency else "",
                          f"{r.wall_time:.2f}" if r.wall_time is not None else "-",
                          f"{r.stepping_time:.3f}" if r.stepping_time is not None else "-"))
         print(format_table(rows) if len(rows) > 1 else "no runs")

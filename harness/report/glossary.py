@@ -101,6 +101,18 @@ EFFICIENCY = {
                    "runs (red grew, blue shrank).",
 }
 
+#: the glossary's word for each consistency level as stored (``Run.consistency``, ``ConsistencyResult.level``): the
+#: CLI, JUnit and the dashboard print these, never the stored codes; length mismatch and missing quantities
+#: are inconsistent in the glossary's sense
+LEVEL_WORDS = {"perfect": "perfect", "good": "good", "inconsistent": "inconsistent", "no_reference": "no reference run",
+               "": "not checked", "length_mismatch": "length mismatch", "missing": "missing"}
+
+
+def level_word(level: str | None) -> str:
+    """The glossary's word for a stored consistency level ("no_reference" -> "no reference run")."""
+    return LEVEL_WORDS.get(level or "", level or "")
+
+
 #: every word with its sentence, for tooltips ("failed" is the verdict's sentence: the state's is in STATES)
 ALL = {**STATES, **LEVELS, **TERMS, **EFFICIENCY}
 #: the sections of docs/glossary.md

@@ -98,7 +98,7 @@ def test_status_help_explains_every_column(capsys):
         main(["status", "--help"])
     out = capsys.readouterr().out
     assert widest(out) <= 120
-    for heading in ("current build", "not run", "executed", "failed", "post-proc", "checked", "outdated", "older"):
+    for heading in ("current build", "not exec", "executed", "failed", "post-proc", "checked", "outdated", "older"):
         assert f"\n  {heading} " in out, heading
 
 

@@ -650,7 +650,7 @@ class HistoryJunitStaticTest(DashboardTest):
         cases = {(c.get("classname"), c.get("name")): c for c in root.iter("testcase")}
         overruled = cases[("dem-master.contact_models.hooke.impact", "serial")]
         self.assertIsNone(overruled.find("failure"))
-        self.assertIn("run failure accepted by reviewer: known crash", overruled.findtext("system-out"))
+        self.assertIn("reviewer: known crash - overruled the run's failure", overruled.findtext("system-out"))
         self.assertEqual({s.get("name") for s in root.findall("testsuite")},
                          {"dem-master/contact_models/hooke/impact", "dem-master/contact_models/hertz/impact",
                           "dem-master/packing/settle"})

@@ -3,7 +3,7 @@ from django import template
 from django.conf import settings
 
 from harness.analysis.compare import SPEED_WORDS
-from harness.report.glossary import ALL, define
+from harness.report.glossary import ALL, define, level_word
 from webfrontend.presentation import provenance as facts
 from webfrontend.presentation import speed_change as change
 
@@ -119,14 +119,10 @@ def glossary(term):
     return define(term)
 
 
-LEVEL_LABELS = {"perfect": "perfect", "good": "good", "inconsistent": "inconsistent", "no_reference": "no reference run",
-                "": "not checked", "length_mismatch": "length mismatch", "missing": "missing"}
-
-
 @register.filter
 def level_label(value):
-    """A consistency level in the glossary's words (lower case, as the CLI prints it)."""
-    return LEVEL_LABELS.get(value, value)
+    """A consistency level in the glossary's words (harness.report.glossary.level_word, as the CLI and JUnit)."""
+    return level_word(value)
 
 
 @register.filter
