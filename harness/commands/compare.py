@@ -48,6 +48,7 @@ def run(args) -> int:
     from harness.analysis.compare import compare_builds, markdown, rows, summary
     from harness.execution.builds import record_current_build
     from harness.execution.scheduler import RunOptions, format_table, run_targets
+    from harness.report.textout import wrap
     from harness.store.runrecord import finite
 
     target_a, target_b = side(args.a, args.targets_dir), side(args.b, args.targets_dir)
@@ -81,7 +82,7 @@ def run(args) -> int:
         print(markdown(comparison), end="")
     else:
         print(format_table(rows(comparison)))
-        print(summary(comparison))
+        print(wrap(summary(comparison), ""))
         if args.profile:
             print_profiles(comparison)
     return 1 if comparison.failed else 0

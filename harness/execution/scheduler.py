@@ -27,6 +27,7 @@ from filelock import Timeout
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
 from harness.analysis.coverage import record_build_failure, record_selection, selected
+from harness.config.record import STATE_LABELS
 from harness.config.targets import TargetDefinition
 from harness.config.testcases import RunEntry, TestCaseSpec, discover
 from harness.execution import execute as ex
@@ -262,7 +263,7 @@ def _progress(done: int, total: int, record: RunRecord, out) -> None:
     width = 20
     bar = "#" * (width * done // max(total, 1))
     out.write(fit_line(f"[{bar:<{width}}] {done}/{total} ", f"{record.target} {record.testcase}/{record.run}",
-                       f": {record.state}", reason, wall) + "\n")
+                       f": {STATE_LABELS.get(record.state, record.state)}", reason, wall) + "\n")
     out.flush()
 
 
@@ -549,9 +550,10 @@ def summary_table(records: list[RunRecord]) -> str:
     rows = [("target", "commit", "test case", "run", "state", "reason", "wall s", "stepping s", "us/particle-step")]
     for r in sorted(records, key=lambda r: (r.target, r.testcase, r.run)):
         cost = cost_per_particle_step(r.timing)
-        rows.append((r.target, r.build.get("commit", "")[:10], r.testcase, r.run, r.state, r.failure_reason or "",
-                     f"{r.wall_time:.2f}" if r.wall_time is not None else "-",
+        rows.append((r.target, r.build.get("commit", "")[:10], r.testcase, r.run, STATE_LABELS.get(r.state, r.state),
+                     r.failure_reason or "", f"{r.wall_time:.2f}" if r.wall_time is not None else "-",
                      f"{r.stepping_time:.3f}" if r.stepping_time is not None else "-",
                      f"{cost:.3f}" if cost is not None else "-"))
-    return format_table(rows)
+    # states and failure reasons are single words a reader scans for: never cut (paths and names are)
+    return format_table(rows, keep=("target", "state", "reason"))
 

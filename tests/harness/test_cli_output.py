@@ -54,10 +54,10 @@ def test_tables_fit_120_columns_and_messages_are_whole_on_request(project, capsy
     assert out.err.count("first runs of this build: the engine compiles its kernels") == 2
     assert widest(out.out) <= 120
     # progress lines too: the run's name is cut in its middle, its end (the run name) kept
-    assert widest(out.err) <= 120 and "…" in out.err and "a_long_run_configuration_name: post_processed" in out.err
+    assert widest(out.err) <= 120 and "…" in out.err and "a_long_run_configuration_name: post-processed" in out.err
     assert harness(project, "--wide", "run", "development_branch", "--all", "--no-reference") == 0
     wide = capsys.readouterr().err
-    assert widest(wide) > 120 and f"development_branch {CASE}/a_long_run_configuration_name: post_processed" in wide
+    assert widest(wide) > 120 and f"development_branch {CASE}/a_long_run_configuration_name: post-processed" in wide
 
     assert harness(project, "check") == 1
     out = capsys.readouterr().out
