@@ -20,6 +20,9 @@ from webfrontend import params, plots
 #: colours of the sections, in harness.analysis.breakdown.SECTIONS order (the stacked bars of parts/timing.html,
 #: the breakdown page and the table's swatches)
 SECTION_COLORS = dict(zip(bd.SECTIONS, ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#7f7f7f")))
+#: the top of the efficiency plot's axis (efficiency and serial fraction are fractions; larger values are drawn
+#: there, their value on hover)
+EFFICIENCY_AXIS_TOP = 1.5
 #: commits one breakdown page draws at most per run name (the newest)
 BREAKDOWN_COMMITS = 200
 
@@ -87,16 +90,29 @@ def scaling_plots(request, build_id, testcase, name):
     cores = [p.cores for p in study.points]
     base = cores[0]
     title = f"{build.target.name}: {study.key}"
-    speedup = plots.plot(f"{title}: speedup ({study.kind} scaling)", "cores", "speedup [1]", cores, [
+    # core counts are whole numbers: one tick per measured count (no "1.5 cores")
+    speedup = plots.plot(f"{title}: speedup ({study.kind} scaling)", "cores", "speedup [1]",
+                         list(range(len(cores))), [
         {"label": "measured", "values": [p.speedup for p in study.points], "color": plots.PALETTE[0], "points": True},
-        {"label": "ideal (S = P)", "values": [c / base for c in cores], "color": "#888888", "dash": True}])
+        {"label": "ideal (S = P)", "values": [c / base for c in cores], "color": "#888888", "dash": True}],
+        xticks=[str(c) for c in cores])
     history = scaling.history(build.target_id, build.machine_id).get(study.key, [])
+    efficiency_values = [r["efficiency"] for r in history]
+    serial_values = [r["serial_fraction"] for r in history]
+    # both are fractions: the axis stays near [0, 1]; a serial fraction of 20 (a point slower on more cores)
+    # is drawn at the top and shows its value on hover, instead of flattening the efficiency to 0
+    top = min(EFFICIENCY_AXIS_TOP, max([1.05] + [v for v in efficiency_values + serial_values if v is not None]))
+
+    def clipped(values):
+        return [None if v is None else min(v, top) for v in values]
+
     efficiency = plots.plot(f"{title}: efficiency at the most cores per commit", "commit (oldest first)",
                             "parallel efficiency [1]", list(range(len(history))), [
-        {"label": "efficiency", "values": [r["efficiency"] for r in history], "color": plots.PALETTE[1],
-         "points": True},
-        {"label": "serial fraction", "values": [r["serial_fraction"] for r in history], "color": plots.PALETTE[2],
-         "points": True, "dash": True}], xticks=[r["commit"][:10] for r in history])
+        {"label": "efficiency", "values": clipped(efficiency_values), "hover": efficiency_values,
+         "color": plots.PALETTE[1], "points": True},
+        {"label": "serial fraction", "values": clipped(serial_values), "hover": serial_values,
+         "color": plots.PALETTE[2], "points": True, "dash": True}],
+        xticks=[r["commit"][:10] for r in history], ylimits=[0.0, top])
     return JsonResponse({"plots": [speedup, efficiency]})
 
 

@@ -77,16 +77,28 @@ class EfficiencyPagesTest(FolderTestCase):
         current = self.builds[1]
         data = self.client.get(f"/scaling/{current.pk}/{self.case.path}/scaling.json").json()
         speedup, efficiency = data["plots"]
-        self.assertEqual(speedup["x"], [1, 2])
+        self.assertEqual((speedup["x"], speedup["xticks"]), ([0, 1], ["1", "2"]))  # one tick per core count
         self.assertEqual(speedup["series"][0]["values"], [1.0, 1.25])
         self.assertEqual(speedup["series"][1]["values"], [1.0, 2.0])
         self.assertEqual(efficiency["xticks"], ["a" * 10, "b" * 10])
         self.assertAlmostEqual(efficiency["series"][0]["values"][0], 10 / 5.5 / 2)
+        self.assertEqual(efficiency["ylimits"], [0.0, 1.05])                       # fractions: near [0, 1]
         self.assertEqual(self.client.get(f"/scaling/{current.pk}/{self.case.path}/nope.json").status_code, 404)
         older = self.client.get(f"/scaling/?build={self.builds[0].pk}").content.decode()
         table = older.split("scaling-table")[1].split("</table>")[0]
         self.assertIn("<td class=\"num\">1.818</td>", table)
         self.assertIn(f'href="/scaling/?build={self.builds[0].pk}"', self.client.get("/scaling/").content.decode())
+
+    def test_a_serial_fraction_beyond_the_axis_is_drawn_at_its_top_with_its_value_on_hover(self):
+        """A point slower on 2 cores than on 1 (speedup 0.1): Karp-Flatt e = 19; the efficiency axis stays
+        [0, 1.5] and e is drawn at 1.5, its value 19 on hover."""
+        current = self.builds[1]
+        Run.objects.filter(build=current, name__endswith="cores=2").update(stepping_time=100.0)
+        efficiency = self.client.get(f"/scaling/{current.pk}/{self.case.path}/scaling.json").json()["plots"][1]
+        serial = efficiency["series"][1]
+        self.assertEqual(efficiency["ylimits"], [0.0, 1.5])
+        self.assertEqual(serial["values"][1], 1.5)
+        self.assertAlmostEqual(serial["hover"][1], (1 / 0.1 - 1 / 2) / (1 - 1 / 2))
 
     def test_breakdown_over_commits_draws_one_bar_per_commit_on_one_scale(self):
         html = self.client.get(f"/breakdown/{self.target.pk}/{self.case.path}/").content.decode()

@@ -104,7 +104,7 @@ def speed_word(kind):
     return SPEED_WORDS.get(kind, kind)
 
 
-VERDICT_LABELS = {"passed": "passed", "failed": "failed", "not_run": "not run"}
+VERDICT_LABELS = {"passed": "passed", "failed": "failed", "not_run": "not run", "skipped": "not run"}
 
 
 @register.filter
