@@ -136,6 +136,8 @@
       legend: { live: true },
       hooks: { draw: [markersHook(spec)] }
     };
+    // commit labels are drawn slanted from their tick: room on the right for the last one
+    if (spec.xticks) opts.padding = [null, 56, null, null];
     var data = [spec.x].concat(spec.series.map(function (s) { return s.values; }));
     var chart = new uPlot(opts, data, holder);
     // a band is one legend entry: its upper edge, named by the band; the lower edge stays out of the legend
