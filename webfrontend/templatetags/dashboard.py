@@ -3,6 +3,7 @@ from django import template
 from django.conf import settings
 
 from harness.analysis.compare import SPEED_WORDS
+from harness.config.record import STATE_LABELS
 from harness.report.glossary import ALL, define, level_word
 from webfrontend.presentation import provenance as facts
 from webfrontend.presentation import speed_change as change
@@ -96,6 +97,12 @@ def compare_limit():
 def speed_change(speed):
     """'+12 %' (slower) or '-8 %' (faster) of a stepping-time change (harness.store.queries.stepping_changes)."""
     return change(speed["ratio"], speed.get("noise") or 0.0)
+
+
+@register.filter
+def state_word(state):
+    """A run state code in the glossary's words ("post_processed" -> "post-processed")."""
+    return STATE_LABELS.get(state, state)
 
 
 @register.filter
