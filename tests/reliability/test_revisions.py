@@ -177,7 +177,7 @@ def test_regressions_marks_the_commits_where_physics_and_speed_changed(tmp_path,
             source = fake_engine_source(9.81 * 1.1)
             files["engine/__main__.py"] = source
         if i == 6:   # speed: the engine reports twice the loop time from here on
-            files["engine/__main__.py"] = source.replace('"total": 0.002', '"total": 0.004')
+            files["engine/__main__.py"] = fake_engine_source(9.81 * 1.1, stepping=[0.004])
         commits.append(commit_daily(repo, files, f"change {i}"))
     targets = tmp_path / "targets"
     targets.mkdir()
