@@ -4,9 +4,9 @@ GOOD is run once as the baseline. Then, between GOOD and BAD (git's ``GOOD..BAD`
 from BAD and not from GOOD), a commit is *bad* when its runs, compared with GOOD's by ``harness.analysis.compare``,
 have a new failure or an inconsistency - or, with ``slower``, when the geometric mean of its stepping-time
 ratios to GOOD reaches that factor and exceeds the measured spread of repeated runs (``harness run --repeat``;
-``harness.store.rules.speed_kind``, the rule of the regressions and the overview). The search keeps the invariant "last known good < first bad" and halves
-the interval each step; a commit that cannot be built is skipped (the nearest buildable commit is tried), as
-``git bisect skip`` does.
+``harness.store.rules.speed_kind``, the rule of the regressions and the overview). The search keeps the
+invariant "last known good < first bad" and halves the interval each step; a commit that cannot be built is
+skipped (the nearest buildable commit is tried), as ``git bisect skip`` does.
 """
 from __future__ import annotations
 
@@ -51,7 +51,8 @@ def judge(comparison: Comparison, slower: float | None) -> tuple[str, str]:
     if slower and speed_kind(ratio, noise, slower - 1.0) == "slower":
         return "bad", f"stepping time {ratio:.3f}x GOOD's (limit {slower:g}{spread})"
     if slower and ratio and ratio >= slower:
-        return "good", f"consistent; stepping time {ratio:.3f}x GOOD's, within the spread of repeated runs {noise * 100:.0f} %"
+        return "good", (f"consistent; stepping time {ratio:.3f}x GOOD's, within the spread of repeated runs "
+                        f"{noise * 100:.0f} %")
     return "good", (f"consistent; stepping time {ratio:.3f}x GOOD's{spread}" if ratio else "consistent")
 
 
