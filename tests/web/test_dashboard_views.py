@@ -47,6 +47,18 @@ def cells(row: str) -> list[str]:
 
 
 class OverviewTest(DashboardTest):
+    def test_a_run_without_a_reference_run_is_counted_as_such_not_as_not_checked(self):
+        """A checked run whose reference target has no run of its content: "no reference run", the glossary's
+        level, in the overview's consistency cell and bar, and a category of its own in the folder filter."""
+        Run.objects.filter(pk=self.s["good"].pk).update(consistency="no_reference")
+        master = cells(target_rows(self.get("/").content.decode())["dem-master"])
+        self.assertEqual(master[6], "1 inconsistent 2 not checked 1 no reference run")
+        html = self.get(self.folder_url(mode="consistency", show="no_reference")).content.decode()
+        self.assertIn("no reference run", html)
+        self.assertEqual(list(Run.objects.in_category("no_reference").values_list("pk", flat=True)),
+                         [self.s["good"].pk])
+        self.assertNotIn(self.s["good"].pk, Run.objects.in_category("not_checked").values_list("pk", flat=True))
+
     def test_a_row_per_target_failing_first_with_the_check_verdict(self):
         html = self.get("/").content.decode()
         self.assertIn("machine ws1", html)

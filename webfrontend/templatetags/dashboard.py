@@ -12,13 +12,13 @@ register = template.Library()
 
 LABELS = {"successful": "successful", "failed": "failed", "not_executed": "not executed",
           "outdated": "outdated", "consistent": "consistent", "inconsistent": "inconsistent",
-          "not_checked": "not checked"}
+          "no_reference": "no reference run", "not_checked": "not checked"}
 
 
 @register.inclusion_tag("webfrontend/parts/bar.html")
 def tally_bar(tally, mode="state"):
     """Bar whose length is the share of successful (or consistent) runs, with the counts beside it."""
-    categories = (("consistent", "inconsistent", "not_checked") if mode == "consistency"
+    categories = (("consistent", "inconsistent", "no_reference", "not_checked") if mode == "consistency"
                   else ("successful", "failed", "not_executed"))
     return {"tally": tally, "percent": round(100 * tally.share(mode), 1), "color": bar_color(tally, mode),
             "counts": [(LABELS[c], c, tally.counts.get(c, 0)) for c in categories],
