@@ -77,6 +77,9 @@ class Task:
     planned: datetime = field(default_factory=lambda: datetime.now(timezone.utc))
     #: the record of a run that is not executed (its configuration has problems): stored as it is
     record: RunRecord | None = None
+    #: the wall time of this run configuration's last run by the target on this machine (s), any build: what
+    #: the estimate of the time left expects of it (None: never ran)
+    expected: float | None = None
 
 
 @dataclass
@@ -151,6 +154,11 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
         # a new build sits silent for a while before its first run reports (the bundled engine: kernels)
         say(wrap(f"{target.name}@{build.commit[:10]}: first runs of this build: {adapter.first_run_note}", ""))
     tasks: dict[tuple, Task] = {}
+    last_wall: dict = {}
+    for path, name, wall in (Run.objects.filter(machine__name=options.machine, target__name=target.name,
+                                                wall_time__isnull=False)
+                             .order_by("-finished").values_list("testcase__path", "name", "wall_time")):
+        last_wall.setdefault((path, name), wall)
 
     def add(testcase: TestCaseSpec, entry: RunEntry, force: bool = False) -> None:
         key = (target.name, testcase.path, entry.name, build.commit)
@@ -173,7 +181,7 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
             report.skipped += 1
             return
         dependency = testcase.run(entry.depends_on) if entry.depends_on else None
-        task = Task(key, spec)
+        task = Task(key, spec, expected=last_wall.get((testcase.path, entry.name)))
         if dependency is not None:
             dep_key = (target.name, testcase.path, dependency.name, build.commit)
             dep_previous = existing.get((testcase.path, dependency.name, testcase.content_hash(dependency.name)))
@@ -309,14 +317,23 @@ def _release(task: Task) -> None:
         task.lock.release()
 
 
-def _started(task: Task, since: float, done: int, total: int, durations: list, slots: int, out) -> None:
-    """A line as a run starts: elapsed time and, once runs have finished, an estimate of what is left
-    (mean run time so far x runs left / parallel slots)."""
+def time_left(tasks_left: list[Task], durations: list, slots: int) -> float | None:
+    """An estimate of the time the runs not finished yet take (s): each its own last wall time on this machine
+    (``Task.expected``) or else the mean wall time of the runs finished so far, summed over the parallel
+    slots, and at least the longest of them (a 5-minute hopper left alone is 5 minutes, not the mean of the
+    short runs). None when some run has neither figure."""
+    mean = sum(durations) / len(durations) if durations else None
+    times = [task.expected if task.expected is not None else mean for task in tasks_left]
+    if not times or any(t is None for t in times):
+        return None
+    return max(sum(times) / max(slots, 1), max(times))
+
+
+def _started(task: Task, since: float, tasks_left: list[Task], durations: list, slots: int, out) -> None:
+    """A line as a run starts: elapsed time and an estimate of what is left (``time_left``)."""
     elapsed = time.monotonic() - since
-    left = ""
-    if durations:
-        estimate = sum(durations) / len(durations) * (total - done) / max(slots, 1)
-        left = f", about {_duration(estimate)} left"
+    estimate = time_left(tasks_left, durations, slots)
+    left = f", about {_duration(estimate)} left" if estimate is not None else ""
     target, testcase, run, commit = task.key
     out.write(fit_line("start ", f"{target}@{commit[:10]} {testcase}/{run}", f" ({_duration(elapsed)} elapsed{left})")
               + "\n")
@@ -454,7 +471,8 @@ class _Execution:
         in_flight.started = ex.now_iso()
         store_record(in_flight)
         self.running[self.pool.submit(task.spec)] = task
-        _started(task, self.started, self.done_count, self.total, self.durations, self.pool.slots, self.out)
+        _started(task, self.started, self.pending + list(self.running.values()), self.durations, self.pool.slots,
+                 self.out)
 
     def collect(self) -> None:
         """Wait for at least one running run and store what came back."""

@@ -152,3 +152,16 @@ def test_a_progress_line_cuts_the_message_first_then_the_name_in_its_middle():
         assert textout.fit_line(before, name, after, detail, end) == before + name + after + detail + end
     finally:
         textout.set_width(textout.DEFAULT_WIDTH)
+
+
+def test_the_time_left_expects_each_run_its_own_last_wall_time():
+    """The estimate a starting run prints: a run that took 290 s last time is not the mean of the short ones."""
+    from harness.execution.scheduler import Task, time_left
+
+    hopper = Task(("liggghts", "scenes/hopper", "D28", "c"), None, expected=290.0)
+    drop = Task(("liggghts", "walls/drop", "main", "c"), None, expected=1.0)
+    new = Task(("liggghts", "walls/new", "main", "c"), None)
+    assert time_left([hopper, drop], durations=[1.0, 2.0], slots=2) == 290.0   # the longest run bounds it
+    assert time_left([drop, new], durations=[1.0, 3.0], slots=2) == 2.0        # a new run: the mean so far
+    assert time_left([drop] * 6, durations=[], slots=2) == 3.0                 # six 1 s runs on two slots
+    assert time_left([new], durations=[], slots=2) is None                     # nothing to go by
