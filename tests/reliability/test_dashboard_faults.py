@@ -538,7 +538,7 @@ class ProvenanceTest(TestCase):
             for fact in facts:
                 assert fact in html, (name, fact)
         html = self.client.get(f"/runs/{run.pk}/").content.decode()
-        assert "Verdict: failed</strong> (inconsistent): ke: inconsistent, C = 0.8257, first bad step 1000" in html
+        assert "Verdict: failed</strong>: ke: inconsistent, C = 0.8257, first bad step 1000" in html
 
     def test_reference_of_other_content_is_flagged(self):
         from harness.store.models import Run
