@@ -17,8 +17,12 @@ from harness.execution import profiles
 from harness.store.models import Build, Machine, Run, Target, TestCase
 from webfrontend import params, plots
 
-#: colours of the sections, in harness.analysis.breakdown.SECTIONS order (those of the timing bars, parts/timing.html)
+#: colours of the sections, in harness.analysis.breakdown.SECTIONS order (the stacked bars of parts/timing.html,
+#: the breakdown page and the table's swatches)
 SECTION_COLORS = dict(zip(bd.SECTIONS, ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#7f7f7f")))
+#: the top of the efficiency plot's axis (efficiency and serial fraction are fractions; larger values are drawn
+#: there, their value on hover)
+EFFICIENCY_AXIS_TOP = 1.5
 #: commits one breakdown page draws at most per run name (the newest)
 BREAKDOWN_COMMITS = 200
 
@@ -30,14 +34,19 @@ def section_bar(breakdown: dict, scale: float) -> list[dict]:
             for name, value in seconds.items() if value > 0 and scale > 0]
 
 
+def timed(runs) -> list:
+    """The runs that have a timing breakdown (``harness.analysis.breakdown.of_run``): the others draw no bar."""
+    return [r for r in runs if bd.of_run(r)]
+
+
 def breakdown_rows(runs) -> list[dict]:
     """Per run: its stacked bar (one scale for all, so a slower run has a longer bar), the sections with
     min/avg/max over ranks, ranks and load imbalance."""
-    totals = [(r.breakdown or {}).get("total") or sum(bd.section_seconds(r.breakdown or {}).values()) for r in runs]
+    data = [bd.of_run(r) for r in runs]
+    totals = [d.get("total") or sum(bd.section_seconds(d).values()) for d in data]
     scale = max(totals, default=0.0)
     rows = []
-    for run, total in zip(runs, totals):
-        data = run.breakdown or {}
+    for run, total, data in zip(runs, totals, data):
         sections = data.get("sections", {})
         rows.append({"run": run, "total": total, "width": 100.0 * total / scale if scale else 0.0,
                      "segments": section_bar(data, scale), "ranks": data.get("ranks"),
@@ -81,16 +90,29 @@ def scaling_plots(request, build_id, testcase, name):
     cores = [p.cores for p in study.points]
     base = cores[0]
     title = f"{build.target.name}: {study.key}"
-    speedup = plots.plot(f"{title}: speedup ({study.kind} scaling)", "cores", "speedup [1]", cores, [
+    # core counts are whole numbers: one tick per measured count (no "1.5 cores")
+    speedup = plots.plot(f"{title}: speedup ({study.kind} scaling)", "cores", "speedup [1]",
+                         list(range(len(cores))), [
         {"label": "measured", "values": [p.speedup for p in study.points], "color": plots.PALETTE[0], "points": True},
-        {"label": "ideal (S = P)", "values": [c / base for c in cores], "color": "#888888", "dash": True}])
+        {"label": "ideal (S = P)", "values": [c / base for c in cores], "color": "#888888", "dash": True}],
+        xticks=[str(c) for c in cores])
     history = scaling.history(build.target_id, build.machine_id).get(study.key, [])
+    efficiency_values = [r["efficiency"] for r in history]
+    serial_values = [r["serial_fraction"] for r in history]
+    # both are fractions: the axis stays near [0, 1]; a serial fraction of 20 (a point slower on more cores)
+    # is drawn at the top and shows its value on hover, instead of flattening the efficiency to 0
+    top = min(EFFICIENCY_AXIS_TOP, max([1.05] + [v for v in efficiency_values + serial_values if v is not None]))
+
+    def clipped(values):
+        return [None if v is None else min(v, top) for v in values]
+
     efficiency = plots.plot(f"{title}: efficiency at the most cores per commit", "commit (oldest first)",
                             "parallel efficiency [1]", list(range(len(history))), [
-        {"label": "efficiency", "values": [r["efficiency"] for r in history], "color": plots.PALETTE[1],
-         "points": True},
-        {"label": "serial fraction", "values": [r["serial_fraction"] for r in history], "color": plots.PALETTE[2],
-         "points": True, "dash": True}], xticks=[r["commit"][:10] for r in history])
+        {"label": "efficiency", "values": clipped(efficiency_values), "hover": efficiency_values,
+         "color": plots.PALETTE[1], "points": True},
+        {"label": "serial fraction", "values": clipped(serial_values), "hover": serial_values,
+         "color": plots.PALETTE[2], "points": True, "dash": True}],
+        xticks=[r["commit"][:10] for r in history], ylimits=[0.0, top])
     return JsonResponse({"plots": [speedup, efficiency]})
 
 
@@ -182,7 +204,7 @@ def profile_diff_json(request):
 def breakdown_context(runs) -> dict:
     """What parts/breakdown_table.html shows for runs of a run or comparison page (with the link to the
     differential flame graph when exactly two profiled runs are compared)."""
-    runs = [r for r in runs if r.breakdown]
+    runs = timed(runs)
     diff_url = None
     if len(runs) == 2 and all(r.profile for r in runs):
         diff_url = reverse("profile-diff") + f"?run={runs[0].pk},{runs[1].pk}"

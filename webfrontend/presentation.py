@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import difflib
 import json
-from dataclasses import dataclass
 
 from django.urls import reverse
 from django.utils.http import urlencode
@@ -15,12 +14,10 @@ from harness.analysis.consistency import compare_runs
 from harness.analysis.matrix import QUANTITIES, _c, _short
 from harness.analysis.regressions import histories
 from harness.store.models import Run, Series
+from harness.store.rules import speed_kind
 from webfrontend import plots
 from webfrontend.runfiles import RECORD_NAME
 
-#: timing categories of the breakdown (thesis figure 4.8), in stacking order, with their colors
-TIMING_CATEGORIES = (("pair", "#1f77b4"), ("neigh", "#ff7f0e"), ("comm", "#2ca02c"),
-                     ("modify", "#9467bd"), ("output", "#8c564b"), ("other", "#7f7f7f"))
 #: lines of a unified diff shown at most (the rest is summarized)
 DIFF_LINE_LIMIT = 5000
 
@@ -37,17 +34,11 @@ def commit_link(build, commit_url: str | None) -> dict:
             "url": commit_url.replace("{commit}", build.commit) if commit_url else None}
 
 
-#: a stepping-time change smaller than this share is not marked slower or faster (the smallest change
-#: harness.analysis.regressions.speed_changes reports)
-SPEED_MARK = 0.1
-
-
 def speed_change(ratio: float, noise: float = 0.0) -> dict:
     """A stepping-time ratio (now / before) for a page: "+12 %" slower, "-8 %" faster, and which; marked only
-    beyond ``SPEED_MARK`` and beyond ``noise``, the measured spread of repeated runs (relative)."""
-    mark = max(SPEED_MARK, noise)
-    kind = "slower" if ratio - 1.0 >= mark else "faster" if 1.0 - ratio >= mark else "same"
-    return {"text": f"{(ratio - 1.0) * 100.0:+.0f} %", "kind": kind,
+    beyond the measured spread of repeated runs ``noise`` (relative), by the rule of
+    ``harness.store.rules.speed_kind``."""
+    return {"text": f"{(ratio - 1.0) * 100.0:+.0f} %", "kind": speed_kind(ratio, noise),
             "noise": f"{noise * 100:.0f} %" if noise else ""}
 
 
@@ -101,44 +92,6 @@ def run_label(run) -> str:
 def short_label(run) -> str:
     """Run name for legends and bars: id, target and revision (the id tells test cases apart)."""
     return f"#{run.pk} {run.target.name}@{revision_label(run.build)}"
-
-
-def timing_total(run) -> float:
-    timing = run.timing if isinstance(run.timing, dict) else {}
-    total = timing.get("total")
-    if isinstance(total, (int, float)) and total > 0:
-        return float(total)
-    return float(sum(v for k, v in timing.items() if k != "total" and isinstance(v, (int, float))))
-
-
-@dataclass
-class Segment:
-    category: str
-    seconds: float
-    percent: float  # of the bar's scale
-    color: str
-
-
-def timing_bar(run, scale: float | None = None) -> dict:
-    """Stacked bar of the timing breakdown in s; ``scale`` (s) is the full bar width, default the run's total.
-
-    Compared runs share one scale, so a faster run has a shorter bar (thesis 4.6.2, figure 4.9).
-    """
-    timing = run.timing if isinstance(run.timing, dict) else {}
-    total = timing_total(run)
-    scale = scale or total
-    segments = []
-    for category, color in TIMING_CATEGORIES:
-        seconds = timing.get(category) or 0.0
-        if isinstance(seconds, (int, float)) and seconds > 0 and scale > 0:
-            segments.append(Segment(category, float(seconds), 100.0 * seconds / scale, color))
-    return {"run": run, "label": short_label(run), "title": run_label(run), "total": total, "segments": segments,
-            "width": 100.0 * total / scale if scale else 0.0}
-
-
-def timing_bars(runs) -> list[dict]:
-    scale = max((timing_total(r) for r in runs), default=0.0)
-    return [timing_bar(r, scale) for r in runs]
 
 
 def unified_diff(a_name: str, a_text: str | None, b_name: str, b_text: str | None) -> list[tuple[str, str]]:

@@ -43,7 +43,7 @@ from harness.store.queries import (
     stepping_changes,
 )
 from harness.store.runrecord import FAILURE_REASONS
-from webfrontend import params, plots, presentation
+from webfrontend import efficiency, params, plots, presentation
 from webfrontend.forms import OverrideForm
 from webfrontend.runfiles import RunFolder
 
@@ -201,7 +201,7 @@ def run_detail(request, run_id):
     run = get_object_or_404(Run.objects.detail(), pk=run_id)
     files = RunFolder(run)
     return render(request, "webfrontend/run.html", {
-        "run": run, "label": presentation.run_label(run), "timings": [presentation.timing_bar(run)],
+        "run": run, "label": presentation.run_label(run), "timings": efficiency.breakdown_rows(efficiency.timed([run])),
         "verdict": stored_verdict(run), "texts": files.texts(), "artifacts": files.artifacts(),
         "build_log": presentation.tail(run.build.log, settings.DASHBOARD_TEXT_LIMIT),
         "has_series": bool(run.series.all()), "expectations": presentation.expectation_rows(files),
@@ -243,7 +243,7 @@ def _comparison(runs) -> dict:
         diffs = presentation.text_diffs(runs[0], texts[0], runs[1], texts[1])
     return {"runs": runs, "compared": [(r, presentation.run_label(r)) for r in runs],
             "diff_count": sum(not d["equal"] for d in diffs),
-            "timings": presentation.timing_bars(runs), "diffs": diffs, "compare_limit": COMPARE_LIMIT,
+            "timings": efficiency.breakdown_rows(efficiency.timed(runs)), "diffs": diffs, "compare_limit": COMPARE_LIMIT,
             "contents": len({r.testcase_hash for r in runs}),
             "plots_url": reverse("compare-plots") + "?" + urlencode({"run": ",".join(str(r.pk) for r in runs)})
             if len(runs) > 1 else None}

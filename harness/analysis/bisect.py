@@ -3,9 +3,10 @@
 GOOD is run once as the baseline. Then, between GOOD and BAD (git's ``GOOD..BAD``: every commit reachable
 from BAD and not from GOOD), a commit is *bad* when its runs, compared with GOOD's by ``harness.analysis.compare``,
 have a new failure or an inconsistency - or, with ``slower``, when the geometric mean of its stepping-time
-ratios to GOOD reaches that factor. The search keeps the invariant "last known good < first bad" and halves
-the interval each step; a commit that cannot be built is skipped (the nearest buildable commit is tried), as
-``git bisect skip`` does.
+ratios to GOOD reaches that factor and exceeds the measured spread of repeated runs (``harness run --repeat``;
+``harness.store.rules.speed_kind``, the rule of the regressions and the overview). The search keeps the
+invariant "last known good < first bad" and halves the interval each step; a commit that cannot be built is
+skipped (the nearest buildable commit is tried), as ``git bisect skip`` does.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from harness.config import gitrepo
 from harness.config.revisions import at_revision
 from harness.execution.builds import record_current_build
 from harness.execution.scheduler import RunOptions, run_targets
+from harness.store.rules import speed_kind
 
 
 @dataclass
@@ -43,20 +45,25 @@ def judge(comparison: Comparison, slower: float | None) -> tuple[str, str]:
         what = (f"{first.testcase}/{first.run} {first.outcome}"
                 + (f" (lowest C {first.lowest_c:.4g})" if first.lowest_c is not None else ""))
         return "bad", f"{len(broken)} run(s) broke, e.g. {what}"
-    ratio = comparison.time_ratio
+    ratio, noise = comparison.time_ratio, comparison.noise
+    spread = f", spread of repeated runs {noise * 100:.0f} %" if noise else ""
+    # the rule of the regressions and the overview: a change counts only beyond the measured spread
+    if slower and speed_kind(ratio, noise, slower - 1.0) == "slower":
+        return "bad", f"stepping time {ratio:.3f}x GOOD's (limit {slower:g}{spread})"
     if slower and ratio and ratio >= slower:
-        return "bad", f"stepping time {ratio:.3f}x GOOD's (limit {slower:g})"
-    return "good", (f"consistent; stepping time {ratio:.3f}x GOOD's" if ratio else "consistent")
+        return "good", (f"consistent; stepping time {ratio:.3f}x GOOD's, within the spread of repeated runs "
+                        f"{noise * 100:.0f} %")
+    return "good", (f"consistent; stepping time {ratio:.3f}x GOOD's{spread}" if ratio else "consistent")
 
 
 def bisect(target, good: str, bad: str, machine: str, pattern: str | None = None, slower: float | None = None,
-           jobs: int = 1, say=print, profile: bool = False) -> BisectResult:
+           jobs: int = 1, say=print, profile: bool = False, repeat: int = 1) -> BisectResult:
     repo = gitrepo.open_repository(target.repository)
     good_commit, bad_commit = gitrepo.resolve(repo, good).hexsha, gitrepo.resolve(repo, bad).hexsha
     commits = repo.git.rev_list("--reverse", f"{good_commit}..{bad_commit}").split()
     if not commits:
         raise UserError(f"bisect: no commits between {good} and {bad} ({bad} is not a descendant of {good})")
-    options = RunOptions(machine=machine, pattern=pattern, jobs=jobs, profile=profile)
+    options = RunOptions(machine=machine, pattern=pattern, jobs=jobs, profile=profile, repeat=repeat)
     say(f"bisect {target.name}: {len(commits)} commits after {good_commit[:10]} up to {bad_commit[:10]}, "
         f"about {max(1, (len(commits)).bit_length())} builds")
     good_build = _run(target, good_commit, options, say)

@@ -46,6 +46,12 @@ def from_timing(timing: dict, ranks: int = 1) -> dict:
     return {"sections": sections, "total": total, "ranks": int(ranks), "imbalance": None, "imbalance_of": ""}
 
 
+def of_run(run) -> dict:
+    """A run's breakdown as stored (``Run.breakdown``), else one from its short-key ``timing`` (runs stored or
+    imported before breakdowns were read): every page and command reads a run's sections through this."""
+    return run.breakdown or from_timing(run.timing if isinstance(run.timing, dict) else {})
+
+
 def add_block(breakdown: dict, block: dict) -> dict:
     """``breakdown`` plus one run block's breakdown (times summed; min and max summed too: the rank that is
     slowest in every block bounds the sum from above)."""

@@ -28,6 +28,7 @@ from harness.analysis.coverage import (
 )
 from harness.execution.builds import failed_build, failure_message, record_current_build
 from harness.report import junit
+from harness.report.glossary import level_word
 from harness.report.junit import provenance  # noqa: F401  (what a verdict was computed on; the dashboard shows it)
 from harness.store.rules import WHOLE_RUN, gate_status, override_for, quantity_fails
 
@@ -106,6 +107,13 @@ def check_run(run, reference_target: str | None) -> list[QuantityResult]:
     return results
 
 
+def overruled(by: str, what: str) -> str:
+    """How a verdict names an override (the glossary's "overruled"): reviewer and reason first, then what was
+    overruled - ``alice: gravity raised on purpose - overruled ke (inconsistent)``. The CLI, JUnit and the
+    dashboard print it as it is."""
+    return f"{by} - overruled {what}"
+
+
 def verdict_of(run, results: list[QuantityResult], has_reference_target: bool,
                allow_missing: bool = False) -> RunVerdict:
     """The verdict on one covered run (``harness.analysis.coverage``), its status by ``harness.store.rules.gate_status`` (a
@@ -121,16 +129,16 @@ def verdict_of(run, results: list[QuantityResult], has_reference_target: bool,
         accepted = override_for(overrides, r.series_name, r.quantity)
         label = f"{r.series_name}:{r.quantity}" if r.series_kind != "thermo" else r.quantity
         if accepted:
-            overridden.append(f"{label} ({r.level}) accepted by {accepted}")
+            overridden.append(overruled(accepted, f"{label} ({level_word(r.level)})"))
             continue
         c = f"C = {r.value:.4g}" if r.value is not None else "no C"
         step = f", first bad step {r.first_bad_step:g}" if r.first_bad_step is not None else ""
-        bad.append(f"{label}: {r.level}, {c}{step}" + (f" ({r.message})" if r.message else ""))
+        bad.append(f"{label}: {level_word(r.level)}, {c}{step}" + (f" ({r.message})" if r.message else ""))
     status = gate_status(run.state, bool(whole), bool(bad), allow_missing)
     if run.state == "failed":
         verdict = RunVerdict(run, status, f"{run.failure_reason}: {run.failure_message}", run.failure_reason)
         if whole:
-            verdict.overridden = [f"run failure accepted by {whole}"]
+            verdict.overridden = [overruled(whole, "the run's failure")]
         return verdict
     if run.state == "not_executed" and status == "failed":
         earlier = earlier_content_run(run)
@@ -141,7 +149,7 @@ def verdict_of(run, results: list[QuantityResult], has_reference_target: bool,
         return RunVerdict(run, status, f"not executed: run 'harness run {run.target.name}' (or pass "
                           "--allow-missing)", "not_executed")
     if status == "skipped":
-        return RunVerdict(run, status, f"run {run.get_state_display()}")
+        return RunVerdict(run, status, f"not run: {run.get_state_display()}")
     verdict = RunVerdict(run, status, results=results, overridden=overridden)
     if bad:
         verdict.kind, verdict.message = "inconsistent", "; ".join(bad)

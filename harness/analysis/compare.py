@@ -4,7 +4,9 @@ Runs of A and B are paired by test case, run name and test case content (runs of
 comparable and are listed as such). For each pair, B is scored against A with the consistency score of
 ``harness.analysis.consistency`` (A is the reference: C per quantity, first step out of band) plus the largest
 relative deviation ``max_k |b_k - a_k| / max_k |a_k|`` on the common steps, and the stepping-time ratio
-B/A (the engines' own loop time; no start-up, no JIT compilation). Outcomes:
+B/A (the engines' own loop time; no start-up, no JIT compilation) with the measured spread of repeated runs
+(``harness run --repeat``): a ratio is a speed change only beyond that spread
+(``harness.store.rules.speed_kind``, the rule of the regressions and the overview too). Outcomes:
 
 ``new_failure``  A succeeded, B failed;          ``fixed``          A failed, B succeeded;
 ``still_failing`` both failed;                   ``inconsistent``   both succeeded, some quantity of B is
@@ -17,13 +19,14 @@ The comparison fails (exit code 1 of ``harness compare``) on any new failure or 
 from __future__ import annotations
 
 import math
+import statistics
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from harness.analysis.consistency import compare_runs, run_level
 from harness.config.testcases import matches
-from harness.store.rules import SUCCESS_STATES, effective_state
+from harness.store.rules import SUCCESS_STATES, effective_state, relative_spread, speed_kind
 
 FAILING_OUTCOMES = ("new_failure", "inconsistent")
 
@@ -49,6 +52,12 @@ class PairComparison:
     b: object = None
     quantities: list[QuantityDelta] = field(default_factory=list)
     time_ratio: float | None = None     # stepping time B / A
+    noise: float = 0.0                  # the larger relative spread of A's and B's repeated stepping times
+
+    @property
+    def speed(self) -> str:
+        """"slower", "faster" or "same": the stepping-time ratio beyond 10 % and beyond the spread."""
+        return speed_kind(self.time_ratio, self.noise)
 
     @property
     def lowest_c(self) -> float | None:
@@ -62,7 +71,7 @@ class PairComparison:
     def as_dict(self) -> dict:
         return {"testcase": self.testcase, "run": self.run, "outcome": self.outcome,
                 "a": _run_summary(self.a), "b": _run_summary(self.b), "lowest_c": self.lowest_c,
-                "time_ratio": self.time_ratio,
+                "time_ratio": self.time_ratio, "noise": self.noise, "speed": self.speed,
                 "quantities": [q.__dict__ for q in self.quantities]}
 
 
@@ -87,6 +96,19 @@ class Comparison:
         ratios = [p.time_ratio for p in self.pairs if p.time_ratio]
         return math.exp(sum(math.log(r) for r in ratios) / len(ratios)) if ratios else None
 
+    @property
+    def noise(self) -> float:
+        """The median over the pairs with a stepping-time ratio of their measured spread (relative; 0 without
+        ``--repeat``): the noise the geometric mean must exceed, as the overview's change against the build
+        before (``harness.store.queries.stepping_changes``)."""
+        spreads = [p.noise for p in self.pairs if p.time_ratio]
+        return statistics.median(spreads) if spreads else 0.0
+
+    @property
+    def speed(self) -> str:
+        """"slower", "faster" or "same" for the geometric mean (``harness.store.rules.speed_kind``)."""
+        return speed_kind(self.time_ratio, self.noise)
+
     def counts(self) -> dict:
         out = dict.fromkeys(("consistent", "inconsistent", "new_failure", "fixed", "still_failing", "only_a",
                              "only_b"), 0)
@@ -97,7 +119,8 @@ class Comparison:
     def as_dict(self) -> dict:
         return {"a": {"label": self.label_a, "commit": self.commit_a},
                 "b": {"label": self.label_b, "commit": self.commit_b},
-                "counts": self.counts(), "time_ratio": self.time_ratio, "failed": self.failed,
+                "counts": self.counts(), "time_ratio": self.time_ratio, "noise": self.noise,
+                "speed": self.speed, "failed": self.failed,
                 "pairs": [p.as_dict() for p in self.pairs]}
 
 
@@ -154,12 +177,20 @@ class _Named:
 #: the columns a comparison or a history reads of every run
 ROW_FIELDS = ("id", "testcase__path", "name", "testcase_hash", "state", "replaced", "failure_reason",
               "failure_message", "finished", "consistency", "consistency_min", "stepping_time", "wall_time",
-              "target_id", "build_id")
+              "timing__stepping_repeats", "target_id", "build_id")
 
 
 def run_rows(runs, *extra: str) -> list[RunRow]:
     """The runs of a Run QuerySet as RunRow objects (``extra``: more columns, e.g. build__commit)."""
     return [RunRow(row) for row in runs.values(*ROW_FIELDS, *extra)]
+
+
+def stepping_spread(run) -> float:
+    """The relative spread of a run's repeated stepping times (``harness.store.rules.relative_spread``), from a
+    RunRow's column or a model's ``timing``."""
+    if isinstance(run, RunRow):
+        return relative_spread({"stepping_repeats": run.timing__stepping_repeats})
+    return relative_spread(run.timing)
 
 
 def attach_series(rows: list[RunRow], chunk: int = 500) -> None:
@@ -220,6 +251,7 @@ def compare_pair(a, b) -> PairComparison:
     ok_a, ok_b = effective_state(a) in SUCCESS_STATES, effective_state(b) in SUCCESS_STATES
     if a.stepping_time and b.stepping_time:
         pair.time_ratio = b.stepping_time / a.stepping_time
+        pair.noise = max(stepping_spread(a), stepping_spread(b))
     if not ok_a or not ok_b:
         pair.outcome = ("still_failing" if not ok_a and not ok_b else "new_failure" if ok_a else "fixed")
         return pair
@@ -299,8 +331,28 @@ def rows(comparison: Comparison) -> list[tuple]:
                     _dev(max((q.max_relative_deviation for q in pair.quantities
                               if q.max_relative_deviation is not None), default=None)),
                     f"{worst.first_bad_step:g}" if worst is not None and worst.first_bad_step is not None else "-",
-                    f"{pair.time_ratio:.3f}" if pair.time_ratio else "-"))
+                    ratio_text(pair.time_ratio, pair.noise)))
     return out
+
+
+#: how a comparison's summary names ``harness.store.rules.speed_kind``
+SPEED_WORDS = {"slower": "slower", "faster": "faster", "same": "no speed change"}
+
+
+def ratio_text(ratio: float | None, noise: float) -> str:
+    """A stepping-time ratio B/A for a table cell, with the measured spread of repeated runs: ``1.312 ±4%``."""
+    if not ratio:
+        return "-"
+    return f"{ratio:.3f}" + (f" ±{noise * 100:.0f}%" if noise else "")
+
+
+def speed_summary(comparison: Comparison) -> str:
+    """The geometric mean of the stepping-time ratios, its spread and whether it is a speed change."""
+    ratio = comparison.time_ratio
+    if not ratio:
+        return ""
+    spread = f", spread of repeated runs {comparison.noise * 100:.0f} %" if comparison.noise else ""
+    return f"stepping time B/A {ratio:.3f} (geometric mean{spread}: {SPEED_WORDS[comparison.speed]})"
 
 
 def summary(comparison: Comparison) -> str:
@@ -312,7 +364,7 @@ def summary(comparison: Comparison) -> str:
             f"{counts['still_failing']} still failing"
             + (f", {counts['only_a'] + counts['only_b']} without a partner" if counts['only_a'] + counts['only_b']
                else "")
-            + (f"; stepping time B/A {ratio:.3f} (geometric mean)" if ratio else ""))
+            + (f"; {speed_summary(comparison)}" if ratio else ""))
 
 
 def markdown(comparison: Comparison) -> str:

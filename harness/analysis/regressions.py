@@ -16,9 +16,9 @@ from __future__ import annotations
 import statistics
 from dataclasses import dataclass, field
 
-from harness.analysis.compare import attach_series, compare_pair, run_rows, scored
+from harness.analysis.compare import attach_series, compare_pair, run_rows, scored, stepping_spread
 from harness.config.testcases import matches
-from harness.store.rules import SUCCESS_STATES, effective_state, relative_spread
+from harness.store.rules import SUCCESS_STATES, effective_state, speed_kind
 
 
 @dataclass
@@ -56,7 +56,7 @@ def speed_changes(times: list[float | None], k: float = 3.0, window: int = 5, mi
         sd = statistics.stdev(before)
         ratio = value / mean
         noise = max([spreads[i]] + [spreads[j] for j in window_at])
-        if abs(value - mean) > k * sd and abs(ratio - 1.0) >= max(min_change, noise):
+        if abs(value - mean) > k * sd and speed_kind(ratio, noise, min_change) != "same":
             out.append((i, ratio))
     return out
 
@@ -79,7 +79,7 @@ def histories(machine: str, target: str | None = None, pattern: str | None = Non
     grouped: dict = {}
     # plain rows of what a history reads (effective_state, compare_pair, the spread of repeats): with 10,000
     # runs, model objects would be most of the time
-    for run in run_rows(runs, "target__name", "timing__stepping_repeats", "build__commit", "build__committed_at"):
+    for run in run_rows(runs, "target__name", "build__commit", "build__committed_at"):
         if matches(pattern, run.testcase.path, run.name):
             grouped.setdefault((run.target__name, run.testcase.path, run.name, run.testcase_hash), []).append(run)
     # the series of the runs a history scores against the build before, read together
@@ -91,7 +91,7 @@ def histories(machine: str, target: str | None = None, pattern: str | None = Non
         for run in series:
             history.points.append((run.build.commit, run.build.committed_at, run.stepping_time, run.wall_time,
                                    run.consistency_min, effective_state(run)))
-        spreads = [relative_spread({"stepping_repeats": run.timing__stepping_repeats}) for run in series]
+        spreads = [stepping_spread(run) for run in series]
         for i, ratio in speed_changes([p[2] for p in history.points], k, window, min_change, spreads):
             history.changes.append(Change(series[i].build.commit, series[i - 1].build.commit,
                                           "slower" if ratio > 1 else "faster",

@@ -30,6 +30,7 @@ import math
 from dataclasses import dataclass, field
 
 from harness.config.jsonfile import Problem
+from harness.config.record import STATE_LABELS
 from harness.config.sweep import point_entry
 
 SEPARATOR = "@"
@@ -194,7 +195,7 @@ def format_study(study: Study) -> list[tuple]:
     rows = [("cores", "stepping s", "speedup", "efficiency", "serial fraction", "imbalance", "state")]
     for p in study.points:
         rows.append((str(p.cores), _cell(p.time, ".4g"), _cell(p.speedup, ".3f"), _cell(p.efficiency, ".0%"),
-                     _cell(p.serial_fraction, ".3f"), _cell(p.imbalance, ".2f"), p.state))
+                     _cell(p.serial_fraction, ".3f"), _cell(p.imbalance, ".2f"), STATE_LABELS.get(p.state, p.state)))
     return rows
 
 

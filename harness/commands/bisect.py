@@ -1,4 +1,4 @@
-"""``harness bisect TARGET GOOD BAD [-k PATTERN] [--slower FACTOR]``: the first commit that broke a target."""
+"""``harness bisect TARGET GOOD BAD [-k PATTERN] [--slower FACTOR] [--repeat N] [--profile]``: the first commit that broke a target."""
 import sys
 
 from harness.adapters.base import UserError
@@ -14,6 +14,9 @@ def configure(parser):
     parser.add_argument("bad", metavar="BAD", help="a later revision known to be bad")
     parser.add_argument("-k", dest="pattern", metavar="PATTERN", help="only runs whose 'testcase/run' match")
     parser.add_argument("-j", dest="jobs", type=int, default=1, metavar="N", help="runs in parallel (default 1)")
+    parser.add_argument("--repeat", type=int, default=1, metavar="N",
+                        help="run each engine N times (harness run --repeat): a stepping-time ratio counts as a "
+                             "speed change only beyond the spread of the N times")
     parser.add_argument("--slower", type=float, metavar="FACTOR",
                         help="bad = stepping time grew by FACTOR (e.g. 1.2) against GOOD, besides failures")
     parser.add_argument("--profile", action="store_true",
@@ -24,6 +27,8 @@ def configure(parser):
 def run(args) -> int:
     if args.slower is not None and not args.slower > 1.0:
         raise UserError("--slower must be a factor above 1 (e.g. 1.2)")
+    if args.jobs < 1 or args.repeat < 1:
+        raise UserError("-j and --repeat must be at least 1")
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.analysis.bisect import bisect
@@ -35,7 +40,8 @@ def run(args) -> int:
 
     (target,), _problems = select_targets([args.target], args.targets_dir)
     result = bisect(target, args.good, args.bad, args.machine, args.pattern, args.slower, args.jobs,
-                    say=lambda text: print(text, file=sys.stderr, flush=True), profile=args.profile)
+                    say=lambda text: print(text, file=sys.stderr, flush=True), profile=args.profile,
+                    repeat=args.repeat)
     if result.first_bad is None:
         print(f"the first bad commit is one of {len(result.candidates)} that cannot be built: "
               + " ".join(c[:10] for c in result.candidates))
@@ -64,7 +70,8 @@ def run(args) -> int:
                     c = f"C = {q.value:.4g}" if q.value is not None else q.level
                     print(f"  {pair.testcase}/{pair.run} {q.quantity}: {c}{step}")
         elif args.slower:
-            print(f"\nstepping time against GOOD: {comparison.time_ratio:.3f}x (geometric mean)")
+            spread = f", spread of repeated runs {comparison.noise * 100:.0f} %" if comparison.noise else ""
+            print(f"\nstepping time against GOOD: {comparison.time_ratio:.3f}x (geometric mean{spread})")
             print(format_table(rows(comparison)))
             print_slowdown(comparison)
     return 0

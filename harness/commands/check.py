@@ -8,6 +8,7 @@ whole below the table. A run a reviewer overruled reads ``overruled`` with the r
 import json
 import sys
 
+from harness.report.glossary import level_word
 from harness.store import setup_store
 
 NAME = "check"
@@ -47,12 +48,8 @@ def result_and_detail(v) -> tuple[str, str]:
     """The result column and the detail of a verdict: an overruled run names its reviewer and reason
     before what was overruled."""
     if v.overridden:
-        # harness.analysis.check words each as "<what> accepted by <reviewer>: <reason>": reviewer and reason first
-        accepted = []
-        for text in v.overridden:
-            what, _, by = text.partition(" accepted by ")
-            accepted.append(f"{by} - overruled {what}" if by else text)
-        detail = "; ".join(accepted) + (f"; was: {v.message}" if v.message else "")
+        # harness.analysis.check.overruled words each override with its reviewer and reason first
+        detail = "; ".join(v.overridden) + (f"; was: {v.message}" if v.message else "")
         return ("overruled" if v.status == "passed" else v.status), detail
     # the glossary's word (harness/report/glossary.py): a skipped run (outdated, or not executed with --allow-missing) is
     # "not run" (JUnit: skipped)
@@ -92,7 +89,7 @@ def run(args) -> int:
             rows.append((run.target.name, run.build.commit[:10], f"{run.testcase.path}/{run.name}",
                          *((run.short_hash or "-",) if wide else ()),
                          f"{reference.target.name}@{reference.build.commit[:10]}" if reference is not None else "-",
-                         result, run.consistency or "-",
+                         result, level_word(run.consistency) if run.consistency else "-",
                          f"{run.consistency_min:.4g}" if run.consistency_min is not None else "-", detail))
             if detail:
                 details.append(f"{run.target.name} {run.testcase.path}/{run.name}: {result}: {detail}")

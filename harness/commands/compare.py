@@ -1,4 +1,4 @@
-"""``harness compare A B [-k PATTERN] [--json | --markdown] [--no-run]``: two revisions or two targets.
+"""``harness compare A B [-k PATTERN] [--json | --markdown] [--no-run] [--repeat N] [--profile]``: two revisions or two targets.
 
 ``A`` and ``B`` are ``TARGET`` or ``TARGET@REV`` (``dem@v1.2 dem@HEAD``, ``dem-reference dem``). Runs that
 are missing are run first (``--no-run``: compare only what the store holds). See ``harness.analysis.compare``.
@@ -18,6 +18,9 @@ def configure(parser):
     parser.add_argument("b", metavar="B", help="compared: TARGET or TARGET@REV")
     parser.add_argument("-k", dest="pattern", metavar="PATTERN", help="only runs whose 'testcase/run' match")
     parser.add_argument("-j", dest="jobs", type=int, default=1, metavar="N", help="runs in parallel (default 1)")
+    parser.add_argument("--repeat", type=int, default=1, metavar="N",
+                        help="run each engine N times (harness run --repeat): a stepping-time ratio counts as a "
+                             "speed change only beyond the spread of the N times")
     parser.add_argument("--no-run", action="store_true", help="compare the runs in the store without running")
     parser.add_argument("--profile", action="store_true",
                         help="profile the runs (harness run --profile) and print, per run, the breakdown "
@@ -38,16 +41,20 @@ def side(argument: str, folder):
 
 
 def run(args) -> int:
+    if args.jobs < 1 or args.repeat < 1:
+        raise UserError("-j and --repeat must be at least 1")
     setup_store()
     # imported when the command runs: the store's models need setup_store() first, and `harness --help` stays fast
     from harness.analysis.compare import compare_builds, markdown, rows, summary
     from harness.execution.builds import record_current_build
     from harness.execution.scheduler import RunOptions, format_table, run_targets
+    from harness.report.textout import wrap
     from harness.store.runrecord import finite
 
     target_a, target_b = side(args.a, args.targets_dir), side(args.b, args.targets_dir)
     if not args.no_run:
-        options = RunOptions(machine=args.machine, pattern=args.pattern, jobs=args.jobs, profile=args.profile)
+        options = RunOptions(machine=args.machine, pattern=args.pattern, jobs=args.jobs, profile=args.profile,
+                             repeat=args.repeat)
         report = run_targets([target_a, target_b], options)  # progress on stderr: stdout stays the report
         for problem in report.problems:
             print(f"harness: {problem}", file=sys.stderr)
@@ -75,7 +82,7 @@ def run(args) -> int:
         print(markdown(comparison), end="")
     else:
         print(format_table(rows(comparison)))
-        print(summary(comparison))
+        print(wrap(summary(comparison), ""))
         if args.profile:
             print_profiles(comparison)
     return 1 if comparison.failed else 0

@@ -4,6 +4,8 @@ Exit code 5 when a selection (targets, state, pattern) matches no run."""
 import json
 
 from harness.adapters.base import UserError
+from harness.report.glossary import level_word
+from harness.report.textout import width
 from harness.store import setup_store
 
 NAME = "list"
@@ -65,12 +67,17 @@ def run(args) -> int:
             "wall_time": r.wall_time, "stepping_time": r.stepping_time, "folder": r.folder} for r in selected]),
             indent=1, allow_nan=False))
     else:
-        rows = [("machine", "target", "commit", "test case", "run", "content", "state", "reason", "consistency",
-                 "wall s", "stepping s")]
+        # the machine only with --all-machines (else it is this one), the content hash only in the whole table
+        # (--wide; --json has it): the state, reason and consistency are words a reader scans for, never cut
+        machine, content = bool(args.all_machines), width() is None
+        rows = [(*(("machine",) if machine else ()), "target", "commit", "test case", "run",
+                 *(("content",) if content else ()), "state", "reason", "consistency", "wall s", "stepping s")]
         for r in selected:
-            rows.append((r.machine.name, r.target.name, r.build.commit[:10], r.testcase.path, r.name,
-                         r.short_hash or "-", r.state, r.failure_reason or "", r.consistency or "",
+            rows.append((*((r.machine.name,) if machine else ()), r.target.name, r.build.commit[:10],
+                         r.testcase.path, r.name, *((r.short_hash or "-",) if content else ()),
+                         r.get_state_display(), r.failure_reason or "",
+                         level_word(r.consistency) if r.consistency else "",
                          f"{r.wall_time:.2f}" if r.wall_time is not None else "-",
                          f"{r.stepping_time:.3f}" if r.stepping_time is not None else "-"))
-        print(format_table(rows) if len(rows) > 1 else "no runs")
+        print(format_table(rows, keep=("target", "state", "reason", "consistency")) if len(rows) > 1 else "no runs")
     return 5 if not matched and (args.targets or args.state or args.pattern) else 0

@@ -25,7 +25,7 @@ def configure(parser):
                         help="run the test cases of this folder (anywhere on disk) instead of the targets' own")
     parser.add_argument("--repeat", type=int, default=1, metavar="N",
                         help="run each engine N times and keep the N stepping times (their spread decides which "
-                             "speed changes are marked); with --all also for runs already done")
+                             "speed changes are marked); runs stored with fewer times run again")
     parser.add_argument("--steps", type=int, metavar="N",
                         help="with TARGET@A..B: N commits spread evenly over the range (default: every commit)")
     parser.add_argument("--rerun-failed", action="store_true", help="run failed runs again")

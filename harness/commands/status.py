@@ -11,7 +11,7 @@ NAME = "status"
 HELP = "summary per target: current build (commit) and its runs per state"
 
 #: the table's short column headings for the run states (harness.store.models.Run.State) and the glossary's word
-STATE_COLUMNS = {"not_executed": ("not run", "not executed"), "executed": ("executed", "executed"),
+STATE_COLUMNS = {"not_executed": ("not exec", "not executed"), "executed": ("executed", "executed"),
                  "failed": ("failed", "failed"), "post_processed": ("post-proc", "post-processed"),
                  "consistency_checked": ("checked", "version-consistency-checked"),
                  "outdated": ("outdated", "outdated")}

@@ -488,15 +488,25 @@ def _walk(root: Path, base: Path, prefix: str, adapter) -> tuple[list[TestCaseSp
     return found, problems
 
 
+def _testcases_repository(target: TargetDefinition):
+    """The repository of the target's test cases; a missing one is a problem of the target file's field."""
+    try:
+        return gitrepo.open_repository(target.testcases_repository)
+    except UserError as exc:
+        field = "testcases_repository" if "testcases_repository" in target.raw else "repository"
+        raise UserError(f"{target.path}: $.{field}: {exc} (a relative path starts at the folder that holds "
+                        "the targets folder; the default is the repository holding the target file)") from None
+
+
 def testcase_root(target: TargetDefinition, working_tree: bool = False) -> Path:
     """The folder the target's test case folders are relative to: the working tree or an export."""
     if working_tree or target.testcases_revision == WORKING_TREE:
-        repo = gitrepo.open_repository(target.testcases_repository)
+        repo = _testcases_repository(target)
         if repo.bare:
             raise UserError(f"{target.path}: $.testcases_revision: {WORKING_TREE!r} needs a local checkout, "
                             f"{target.testcases_repository} is bare")
         return Path(repo.working_tree_dir)
-    repo = gitrepo.open_repository(target.testcases_repository)
+    repo = _testcases_repository(target)
     commit = gitrepo.resolve(repo, target.testcases_revision).hexsha
     # one export per repository, commit and set of folders (another target may list other folders)
     key = hashlib.sha1(json.dumps([str(target.testcases_repository), sorted(target.testcases)]).encode())

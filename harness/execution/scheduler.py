@@ -27,6 +27,7 @@ from filelock import Timeout
 from harness.adapters import get_adapter
 from harness.adapters.base import UserError
 from harness.analysis.coverage import record_build_failure, record_selection, selected
+from harness.config.record import STATE_LABELS
 from harness.config.targets import TargetDefinition
 from harness.config.testcases import RunEntry, TestCaseSpec, discover
 from harness.execution import execute as ex
@@ -34,6 +35,7 @@ from harness.execution import profiles
 from harness.execution.builds import DONE_MARKER, BuildError, build_target, failed_build, record_current_build
 from harness.execution.planning import build_info, make_spec
 from harness.execution.workspace import workspace
+from harness.report.textout import fit_line, wrap
 from harness.report.textout import format_table  # noqa: F401  (the commands import it from here)
 from harness.store.records import store_record
 from harness.store.rules import SUCCESS_STATES, effective_state
@@ -75,6 +77,9 @@ class Task:
     planned: datetime = field(default_factory=lambda: datetime.now(timezone.utc))
     #: the record of a run that is not executed (its configuration has problems): stored as it is
     record: RunRecord | None = None
+    #: the wall time of this run configuration's last run by the target on this machine (s), any build: what
+    #: the estimate of the time left expects of it (None: never ran)
+    expected: float | None = None
 
 
 @dataclass
@@ -99,6 +104,8 @@ def _needs_run(existing, options: RunOptions) -> bool:
         return True
     if state == "failed":
         return options.rerun_failed or existing.failure_reason in ("interrupted", "dependency")
+    if options.repeat > 1 and len((existing.timing or {}).get("stepping_repeats") or []) < options.repeat:
+        return True  # --repeat N: a run stored with fewer stepping times runs again
     return options.profile and not existing.profile  # --profile: a run recorded without one runs again
 
 
@@ -145,8 +152,13 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
                 Run.objects.filter(machine__name=options.machine, build=build).select_related("testcase")}
     if adapter.first_run_note and not any(r.stepping_time or r.state in SUCCESS_STATES for r in existing.values()):
         # a new build sits silent for a while before its first run reports (the bundled engine: kernels)
-        say(f"{target.name}@{build.commit[:10]}: first runs of this build: {adapter.first_run_note}")
+        say(wrap(f"{target.name}@{build.commit[:10]}: first runs of this build: {adapter.first_run_note}", ""))
     tasks: dict[tuple, Task] = {}
+    last_wall: dict = {}
+    for path, name, wall in (Run.objects.filter(machine__name=options.machine, target__name=target.name,
+                                                wall_time__isnull=False)
+                             .order_by("-finished").values_list("testcase__path", "name", "wall_time")):
+        last_wall.setdefault((path, name), wall)
 
     def add(testcase: TestCaseSpec, entry: RunEntry, force: bool = False) -> None:
         key = (target.name, testcase.path, entry.name, build.commit)
@@ -169,7 +181,7 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
             report.skipped += 1
             return
         dependency = testcase.run(entry.depends_on) if entry.depends_on else None
-        task = Task(key, spec)
+        task = Task(key, spec, expected=last_wall.get((testcase.path, entry.name)))
         if dependency is not None:
             dep_key = (target.name, testcase.path, dependency.name, build.commit)
             dep_previous = existing.get((testcase.path, dependency.name, testcase.content_hash(dependency.name)))
@@ -252,12 +264,14 @@ class _Pool:
 
 
 def _progress(done: int, total: int, record: RunRecord, out) -> None:
-    reason = f" ({record.failure_reason}: {record.failure_message[:120]})" if record.failed else ""
+    """A line as a run ends, in the CLI's width (``harness.report.textout.fit_line``: the failure message is
+    cut first, then the run's name in its middle; ``harness check -v`` prints the message whole)."""
+    reason = f" ({record.failure_reason}: {record.failure_message})" if record.failed else ""
     wall = f" {record.wall_time:.2f} s" if record.wall_time is not None else ""
     width = 20
     bar = "#" * (width * done // max(total, 1))
-    out.write(f"[{bar:<{width}}] {done}/{total} {record.target} {record.testcase}/{record.run}: "
-              f"{record.state}{reason}{wall}\n")
+    out.write(fit_line(f"[{bar:<{width}}] {done}/{total} ", f"{record.target} {record.testcase}/{record.run}",
+                       f": {STATE_LABELS.get(record.state, record.state)}", reason, wall) + "\n")
     out.flush()
 
 
@@ -281,7 +295,8 @@ def _claim(task: Task, options: RunOptions, waiting: set, out) -> str:
     except Timeout:
         if task.key not in waiting:
             waiting.add(task.key)
-            out.write(f"waiting for another harness process running {task.key[0]} {task.key[1]}/{task.key[2]} ...\n")
+            out.write(fit_line("waiting for another harness process running ",
+                               f"{task.key[0]} {task.key[1]}/{task.key[2]}", " ...") + "\n")
             out.flush()
         return "busy"
     # Another process may have run it since this one planned it: one that held the lock while this one
@@ -302,16 +317,26 @@ def _release(task: Task) -> None:
         task.lock.release()
 
 
-def _started(task: Task, since: float, done: int, total: int, durations: list, slots: int, out) -> None:
-    """A line as a run starts: elapsed time and, once runs have finished, an estimate of what is left
-    (mean run time so far x runs left / parallel slots)."""
+def time_left(tasks_left: list[Task], durations: list, slots: int) -> float | None:
+    """An estimate of the time the runs not finished yet take (s): each its own last wall time on this machine
+    (``Task.expected``) or else the mean wall time of the runs finished so far, summed over the parallel
+    slots, and at least the longest of them (a 5-minute hopper left alone is 5 minutes, not the mean of the
+    short runs). None when some run has neither figure."""
+    mean = sum(durations) / len(durations) if durations else None
+    times = [task.expected if task.expected is not None else mean for task in tasks_left]
+    if not times or any(t is None for t in times):
+        return None
+    return max(sum(times) / max(slots, 1), max(times))
+
+
+def _started(task: Task, since: float, tasks_left: list[Task], durations: list, slots: int, out) -> None:
+    """A line as a run starts: elapsed time and an estimate of what is left (``time_left``)."""
     elapsed = time.monotonic() - since
-    left = ""
-    if durations:
-        estimate = sum(durations) / len(durations) * (total - done) / max(slots, 1)
-        left = f", about {_duration(estimate)} left"
+    estimate = time_left(tasks_left, durations, slots)
+    left = f", about {_duration(estimate)} left" if estimate is not None else ""
     target, testcase, run, commit = task.key
-    out.write(f"start {target}@{commit[:10]} {testcase}/{run} ({_duration(elapsed)} elapsed{left})\n")
+    out.write(fit_line("start ", f"{target}@{commit[:10]} {testcase}/{run}", f" ({_duration(elapsed)} elapsed{left})")
+              + "\n")
     out.flush()
 
 
@@ -446,7 +471,8 @@ class _Execution:
         in_flight.started = ex.now_iso()
         store_record(in_flight)
         self.running[self.pool.submit(task.spec)] = task
-        _started(task, self.started, self.done_count, self.total, self.durations, self.pool.slots, self.out)
+        _started(task, self.started, self.pending + list(self.running.values()), self.durations, self.pool.slots,
+                 self.out)
 
     def collect(self) -> None:
         """Wait for at least one running run and store what came back."""
@@ -542,9 +568,10 @@ def summary_table(records: list[RunRecord]) -> str:
     rows = [("target", "commit", "test case", "run", "state", "reason", "wall s", "stepping s", "us/particle-step")]
     for r in sorted(records, key=lambda r: (r.target, r.testcase, r.run)):
         cost = cost_per_particle_step(r.timing)
-        rows.append((r.target, r.build.get("commit", "")[:10], r.testcase, r.run, r.state, r.failure_reason or "",
-                     f"{r.wall_time:.2f}" if r.wall_time is not None else "-",
+        rows.append((r.target, r.build.get("commit", "")[:10], r.testcase, r.run, STATE_LABELS.get(r.state, r.state),
+                     r.failure_reason or "", f"{r.wall_time:.2f}" if r.wall_time is not None else "-",
                      f"{r.stepping_time:.3f}" if r.stepping_time is not None else "-",
                      f"{cost:.3f}" if cost is not None else "-"))
-    return format_table(rows)
+    # states and failure reasons are single words a reader scans for: never cut (paths and names are)
+    return format_table(rows, keep=("target", "state", "reason"))
 

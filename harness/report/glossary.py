@@ -2,7 +2,7 @@
 same (tests/harness/test_glossary.py holds docs/glossary.md to these sentences).
 
 Groups: run states (what happened to a run), verdicts (what ``harness check`` and JUnit say of it),
-consistency levels (how close it came to its reference run) and the words around them.
+consistency levels (how close it came to its reference run), the words around them and those of speed and scaling.
 """
 from __future__ import annotations
 
@@ -78,11 +78,46 @@ TERMS = {
     "not run": VERDICTS["not run"],
 }
 
+#: the words of speed and scaling (harness.analysis.scaling, harness.analysis.breakdown, harness.execution.profiles)
+EFFICIENCY = {
+    "spread": "Noise of a run's stepping time measured by `harness run --repeat N`: (max - min) / median of its N "
+              "stepping times; 0 without repeats.",
+    "speed change": "A stepping-time ratio now / before that reaches 10 % (`bisect --slower F`: F - 1) and "
+                    "exceeds the spread of repeated runs: slower or faster; anything less is no speed change.",
+    "speedup": "S(P) = T(1) / T(P) for P cores (ranks or threads) from the stepping times T; weak scaling: "
+               "P T(1) / T(P), as the work grows with P.",
+    "efficiency": "Parallel efficiency E(P) = S(P) / P: 1 is perfect scaling, 0.5 means half of the added "
+                  "cores' time is lost.",
+    "Karp-Flatt": "Experimentally determined serial fraction e(P) = (1/S - 1/P) / (1 - 1/P) (Karp and Flatt "
+                  "1990): constant when a serial part limits scaling, growing with P when overhead does.",
+    "breakdown": "Where the stepping time went, in the sections pair, neighbor, communication, modify, output "
+                 "and other (s; min/avg/max over MPI ranks where the code prints them).",
+    "imbalance": "Load imbalance of an MPI run: max / avg over ranks of the pair time (or of the particles per "
+                 "rank); 1 is perfect balance.",
+    "profile": "A sampling profile of a run (`harness run --profile`: perf record -g for native codes, the "
+               "phase timers of the bundled engine), folded into call stacks with their sample counts.",
+    "flame graph": "A profile drawn as stacked boxes: each box a function, its width its share of the samples, "
+                   "callers below callees. The differential one colours by the change of share between two "
+                   "runs (red grew, blue shrank).",
+}
+
+#: the glossary's word for each consistency level as stored (``Run.consistency``, ``ConsistencyResult.level``): the
+#: CLI, JUnit and the dashboard print these, never the stored codes; length mismatch and missing quantities
+#: are inconsistent in the glossary's sense
+LEVEL_WORDS = {"perfect": "perfect", "good": "good", "inconsistent": "inconsistent", "no_reference": "no reference run",
+               "": "not checked", "length_mismatch": "length mismatch", "missing": "missing"}
+
+
+def level_word(level: str | None) -> str:
+    """The glossary's word for a stored consistency level ("no_reference" -> "no reference run")."""
+    return LEVEL_WORDS.get(level or "", level or "")
+
+
 #: every word with its sentence, for tooltips ("failed" is the verdict's sentence: the state's is in STATES)
-ALL = {**STATES, **LEVELS, **TERMS}
+ALL = {**STATES, **LEVELS, **TERMS, **EFFICIENCY}
 #: the sections of docs/glossary.md
 SECTIONS = {"Run states": STATES, "Verdicts": VERDICTS, "Consistency levels": LEVELS,
-            "Other words": {k: v for k, v in TERMS.items() if k not in VERDICTS}}
+            "Other words": {k: v for k, v in TERMS.items() if k not in VERDICTS}, "Efficiency": EFFICIENCY}
 
 
 def define(term: str) -> str:

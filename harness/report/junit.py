@@ -8,7 +8,8 @@ decimals (the schema's SUREFIRE_TIME); a testcase carries only ``name``, ``class
 A failed run or an inconsistency not accepted by a reviewer is a ``<failure>``; a run not executed is
 ``<skipped>`` (a failure unless ``--allow-missing``); a target whose current build failed has a suite
 ``TARGET/build`` with the one failing test case ``build``; ``<system-out>`` says what the verdict was
-computed on, then the log tail.
+computed on, then the log tail. Texts use the words of ``harness.report.glossary`` (consistency levels,
+"overruled", "not run"), as the CLI and the dashboard do.
 """
 from __future__ import annotations
 
@@ -16,6 +17,8 @@ import json
 import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
+
+from harness.report.glossary import level_word
 
 #: characters XML 1.0 cannot hold (engine logs sometimes carry them)
 _NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff]")
@@ -54,8 +57,9 @@ def _case(verdict) -> ET.Element:
     notes = [provenance(run)]
     if verdict.results:
         lowest = min((r.value for r in verdict.results if r.value is not None), default=None)
-        notes.append(f"consistency {run.consistency}" + (f", lowest C = {lowest:.4g}" if lowest is not None else ""))
-    notes += [f"overridden: {text}" for text in verdict.overridden]
+        notes.append(f"consistency level {level_word(run.consistency)}"
+                     + (f", lowest C = {lowest:.4g}" if lowest is not None else ""))
+    notes += verdict.overridden  # "reviewer: reason - overruled what" (harness.analysis.check.overruled)
     if verdict.message and verdict.status != "failed":
         notes.append(verdict.message)
     if verdict.status == "failed":

@@ -1,6 +1,7 @@
 """Tables and messages for a terminal: the CLI's default output fits ``WIDTH`` columns (120), ``--wide``
 prints everything as it is.
 
+A progress line too wide (``fit_line``) cuts its message first, then the run's name in the middle.
 A table too wide for the terminal shrinks its text columns (a column with a cell longer than
 ``TEXT_CELL`` characters: test case paths, messages), the widest first, and cuts their cells with an ellipsis;
 short columns (commits, states, numbers) are never cut.
@@ -74,3 +75,29 @@ def wrap(text: str, indent: str = "  ") -> str:
         return indent + text
     return textwrap.fill(text, width=_width, initial_indent=indent, subsequent_indent=indent + "  ",
                          break_long_words=False, break_on_hyphens=False)
+
+
+#: a message in a progress line keeps at least this many characters before the name is cut
+MIN_DETAIL = 24
+
+
+def cut_middle(text: str, limit: int) -> str:
+    """``text`` cut to ``limit`` characters in its middle (start and end kept: a target and a run name)."""
+    if len(text) <= limit:
+        return text
+    head = max((limit - 1) // 2, 0)
+    return text[:head] + ELLIPSIS + text[len(text) - max(limit - 1 - head, 0):]
+
+
+def fit_line(before: str, name: str, after: str = "", detail: str = "", end: str = "") -> str:
+    """``before + name + after + detail + end`` in the CLI's width (``--wide``: whole). The ``detail`` (a
+    failure message) is cut first, to what the line leaves beside the whole name but not below ``MIN_DETAIL``;
+    then the ``name`` (target, test case and run) is cut in its middle. ``before``, ``after`` and ``end`` (a
+    counter, a state, a time) are kept."""
+    if _width is None:
+        return before + name + after + detail + end
+    room = _width - len(before) - len(after) - len(end)
+    if len(name) + len(detail) > room:
+        keep = max(room - len(name), min(len(detail), MIN_DETAIL, room - MIN_TEXT))
+        detail = cut(detail, keep) if keep > 0 else ""
+    return before + cut_middle(name, max(room - len(detail), MIN_TEXT)) + after + detail + end

@@ -49,7 +49,7 @@ def _model(name: str):
 
 #: outcome categories of the two overview modes, in display order
 STATE_CATEGORIES = ("successful", "failed", "not_executed", "outdated")
-CONSISTENCY_CATEGORIES = ("consistent", "inconsistent", "not_checked")
+CONSISTENCY_CATEGORIES = ("consistent", "inconsistent", "no_reference", "not_checked")
 #: what ``harness check`` says of a run (harness.analysis.check.gate_status): passed, failed, or not run (skipped)
 VERDICT_CATEGORIES = ("passed", "failed", "not_run")
 
@@ -77,7 +77,8 @@ def consistency_category(consistency: str, accepted: bool) -> str:
         return "consistent"
     if consistency == "inconsistent":
         return "consistent" if accepted else "inconsistent"
-    return "not_checked"
+    # checked, but the reference target has no run of this content to compare with: not "not checked"
+    return "no_reference" if consistency == "no_reference" else "not_checked"
 
 
 def accepted_expression():
@@ -348,7 +349,8 @@ class RunQuerySet(models.QuerySet):
         return fold_into_children(self.below(folder).outcome_rows(), folder)
 
     def in_category(self, category: str | None):
-        """Filter by an overview category (successful, failed, ..., consistent, inconsistent, not_checked)."""
+        """Filter by an overview category (successful, failed, ..., consistent, inconsistent, no_reference,
+        not_checked)."""
         if not category:
             return self
         if category == "successful":
@@ -360,8 +362,10 @@ class RunQuerySet(models.QuerySet):
             return qs.filter(Q(consistency__in=CONSISTENT_LEVELS) | Q(consistency="inconsistent", accepted=True))
         if category == "inconsistent":
             return qs.filter(consistency="inconsistent", accepted=False)
+        if category == "no_reference":
+            return qs.filter(consistency="no_reference")
         if category == "not_checked":
-            return qs.exclude(consistency__in=CONSISTENT_LEVELS + ("inconsistent",))
+            return qs.exclude(consistency__in=CONSISTENT_LEVELS + ("inconsistent", "no_reference"))
         return self.none()
 
     def search(self, q=None, commit=None, build=None, state=None, reason=None):

@@ -11,7 +11,9 @@ Pure predicates on a run's columns (nothing here reads the store, so every layer
 - when a run is failing (``is_failing``; SQL form ``RunQuerySet.failing``): what ``harness list -q`` lists,
   what starts a "failing since" streak and what fails ``harness check`` besides the runs not executed;
 - which state a run gets back when its build becomes current again;
-- the measured noise of a run's stepping time (``relative_spread``), read by the history and the overview.
+- the measured noise of a run's stepping time (``relative_spread``) and when a stepping-time ratio is a speed
+  change (``speed_kind``: beyond a threshold and beyond that noise), read by the history, the regressions, the
+  overview, ``harness compare`` and ``bisect --slower``.
 
 The store-side halves - the QuerySet methods ``current()``, ``failing()``, ``accepted()`` and the choice of a
 reference run - are in ``harness.store.queries``.
@@ -114,3 +116,20 @@ def relative_spread(timing) -> float:
     if len(repeats) < 2:
         return 0.0
     return (max(repeats) - min(repeats)) / statistics.median(repeats)
+
+
+#: a stepping-time change smaller than this share is no speed change (regressions, the overview, compare)
+SPEED_MARK = 0.1
+
+
+def speed_kind(ratio: float | None, noise: float = 0.0, threshold: float = SPEED_MARK) -> str:
+    """"slower", "faster" or "same" for a stepping-time ratio now / before (dimensionless): a change counts only
+    when it reaches ``threshold`` (relative, e.g. 0.1 = 10 %; ``bisect --slower 1.2`` asks 0.2) *and*
+    exceeds ``noise``, the measured spread of repeated stepping times (``relative_spread``, the larger of the
+    two sides). "same" without a ratio."""
+    if not ratio:
+        return "same"
+    change = abs(ratio - 1.0)
+    if change < threshold or change <= noise:
+        return "same"
+    return "slower" if ratio > 1.0 else "faster"

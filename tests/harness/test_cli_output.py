@@ -53,6 +53,11 @@ def test_tables_fit_120_columns_and_messages_are_whole_on_request(project, capsy
     # the first runs of each new build say why they are slow to start
     assert out.err.count("first runs of this build: the engine compiles its kernels") == 2
     assert widest(out.out) <= 120
+    # progress lines too: the run's name is cut in its middle, its end (the run name) kept
+    assert widest(out.err) <= 120 and "…" in out.err and "a_long_run_configuration_name: post-processed" in out.err
+    assert harness(project, "--wide", "run", "development_branch", "--all", "--no-reference") == 0
+    wide = capsys.readouterr().err
+    assert widest(wide) > 120 and f"development_branch {CASE}/a_long_run_configuration_name: post-processed" in wide
 
     assert harness(project, "check") == 1
     out = capsys.readouterr().out
@@ -93,7 +98,7 @@ def test_status_help_explains_every_column(capsys):
         main(["status", "--help"])
     out = capsys.readouterr().out
     assert widest(out) <= 120
-    for heading in ("current build", "not run", "executed", "failed", "post-proc", "checked", "outdated", "older"):
+    for heading in ("current build", "not exec", "executed", "failed", "post-proc", "checked", "outdated", "older"):
         assert f"\n  {heading} " in out, heading
 
 
@@ -125,3 +130,38 @@ def test_repeat_keeps_every_stepping_time(project, capsys):
     # without --repeat: one stepping time, no repeats
     assert harness(project, "run", "development_branch", "--no-reference") == 0
     assert "stepping_repeats" not in Run.objects.get(target__name="development_branch").timing
+
+
+def test_a_progress_line_cuts_the_message_first_then_the_name_in_its_middle():
+    from harness.report import textout
+
+    before, name, after, end = "[####] 3/9 ", "dem testcases/walls/sliding_block/run", ": failed", " 1.20 s"
+    detail = " (nonzero_exit: ERROR: lost atoms: original 1000 current 998)"
+    try:
+        textout.set_width(100)                                              # the message is cut, not the name
+        line = textout.fit_line(before, name, after, detail, end)
+        assert len(line) == 100 and name in line and "(nonzero_exit: ERROR: lost atoms:" in line
+        textout.set_width(70)          # the message keeps its first 24 characters, the name is cut in its middle
+        line = textout.fit_line(before, name, after, detail, end)
+        assert len(line) == 70 and line.startswith(before + "dem testc…") and "_block/run: failed" in line
+        assert line.endswith(" (nonzero_exit: ERROR: …" + end)
+        textout.set_width(40)                         # narrow: the name keeps 10 characters, the message the rest
+        line = textout.fit_line(before, name, after, detail, end)
+        assert len(line) == 40 and "k/run: failed (n…" + end in line
+        textout.set_width(None)
+        assert textout.fit_line(before, name, after, detail, end) == before + name + after + detail + end
+    finally:
+        textout.set_width(textout.DEFAULT_WIDTH)
+
+
+def test_the_time_left_expects_each_run_its_own_last_wall_time():
+    """The estimate a starting run prints: a run that took 290 s last time is not the mean of the short ones."""
+    from harness.execution.scheduler import Task, time_left
+
+    hopper = Task(("liggghts", "scenes/hopper", "D28", "c"), None, expected=290.0)
+    drop = Task(("liggghts", "walls/drop", "main", "c"), None, expected=1.0)
+    new = Task(("liggghts", "walls/new", "main", "c"), None)
+    assert time_left([hopper, drop], durations=[1.0, 2.0], slots=2) == 290.0   # the longest run bounds it
+    assert time_left([drop, new], durations=[1.0, 3.0], slots=2) == 2.0        # a new run: the mean so far
+    assert time_left([drop] * 6, durations=[], slots=2) == 3.0                 # six 1 s runs on two slots
+    assert time_left([new], durations=[], slots=2) is None                     # nothing to go by

@@ -71,6 +71,18 @@ def test_defaults_and_unknown_reference(tmp_path):
         select_targets(["c"], tmp_path / "targets")
 
 
+def test_a_test_case_repository_that_is_none_names_the_target_file_and_field(tmp_path):
+    from harness.config.testcases import testcase_root
+
+    write(tmp_path / "targets" / "elsewhere.json", '{"testcases_repository": "no-such-checkout", "testcases": ["a"]}')
+    targets, problems = load_targets(tmp_path / "targets")
+    assert not problems
+    with pytest.raises(UserError) as raised:
+        testcase_root(targets["elsewhere"])
+    assert str(raised.value).startswith(f"{tmp_path / 'targets' / 'elsewhere.json'}: $.testcases_repository: "
+                                        f"repository {tmp_path / 'no-such-checkout'}: not a git repository")
+
+
 def test_shipped_targets_are_valid():
     targets, problems = load_targets(Path(__file__).parents[2] / "targets")
     assert not [p for p in problems if "dem" in p]

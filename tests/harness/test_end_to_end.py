@@ -122,7 +122,7 @@ def test_versions_built_run_and_checked_with_junit(project, store, capsys):
     assert harness(project, "check", "--junit", str(junit)) == 1
     cases = junit_cases(junit)
     assert cases[("good/cases/fall", "main")]["failure"] is None
-    assert "consistency perfect" in cases[("good/cases/fall", "main")]["out"]
+    assert "consistency level perfect" in cases[("good/cases/fall", "main")]["out"]
     bad = cases[("bad/cases/fall", "init")]
     assert bad["type"] == "inconsistent" and "ke: inconsistent, C = " in bad["failure"]
     assert "first bad step" in bad["failure"]
@@ -144,7 +144,7 @@ def test_versions_built_run_and_checked_with_junit(project, store, capsys):
     assert harness(project, "check", "bad", "--junit", str(junit)) == 0
     cases = junit_cases(junit)
     assert cases[("bad/cases/fall", "init")]["failure"] is None
-    assert "accepted by someone: gravity changed on purpose" in cases[("bad/cases/fall", "init")]["out"]
+    assert "someone: gravity changed on purpose - overruled" in cases[("bad/cases/fall", "init")]["out"]
 
     # nothing to do the second time; naming a target also runs its reference (here: all cached)
     assert harness(project, "run", "good") == 0

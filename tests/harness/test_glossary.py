@@ -23,3 +23,16 @@ def test_every_dashboard_tooltip_names_a_glossary_word():
     for template in (PROJECT_ROOT / "webfrontend" / "templates").rglob("*.html"):
         used |= set(re.findall(r"{% glossary '([^']+)' %}", template.read_text()))
     assert used and used <= set(glossary.ALL)
+
+
+def test_every_stored_consistency_level_has_the_glossary_word_the_cli_junit_and_pages_print(store):
+    """``level_word`` (check's table, list, JUnit, the pages) gives the glossary's level for each stored run level,
+    the model's label says the same (Django capitalises it; no page prints it), and a quantity's length mismatch or missing quantity reads as
+    the glossary's "inconsistent" sentence names it."""
+    from harness.analysis.consistency import LENGTH_MISMATCH, MISSING
+    from harness.store.models import Run
+
+    for value, label in Run.Consistency.choices:
+        assert glossary.level_word(value) == label.lower() and label.lower() in glossary.LEVELS
+    assert "different lengths" in glossary.LEVELS["inconsistent"] and glossary.level_word(LENGTH_MISMATCH) == "length mismatch"
+    assert "missing" in glossary.LEVELS["inconsistent"] and glossary.level_word(MISSING) == "missing"

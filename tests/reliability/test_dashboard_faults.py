@@ -538,7 +538,7 @@ class ProvenanceTest(TestCase):
             for fact in facts:
                 assert fact in html, (name, fact)
         html = self.client.get(f"/runs/{run.pk}/").content.decode()
-        assert "Verdict: failed</strong> (inconsistent): ke: inconsistent, C = 0.8257, first bad step 1000" in html
+        assert "Verdict: failed</strong>: ke: inconsistent, C = 0.8257, first bad step 1000" in html
 
     def test_reference_of_other_content_is_flagged(self):
         from harness.store.models import Run
@@ -625,5 +625,5 @@ def test_dashboard_junit_is_what_harness_check_writes(tmp_path):
             assert 'type="inconsistent"' in fall and "ke: inconsistent, C = " in fall
             python(tmp_path, DASHBOARD_JUNIT.replace("{mode}", "override"))
         else:
-            assert "<failure" not in fall and "accepted by someone: gravity changed on purpose" in fall
+            assert "<failure" not in fall and "someone: gravity changed on purpose - overruled" in fall
         assert re.search(r"bad at [0-9a-f]{10}, test case [0-9a-f]{10}; reference ref at [0-9a-f]{10}", fall)

@@ -142,7 +142,8 @@ def test_speed_detector_marks_a_step_and_ignores_noise():
 
 
 def test_a_speed_change_inside_the_spread_of_repeated_runs_is_not_marked():
-    from harness.analysis.regressions import relative_spread, speed_changes
+    from harness.analysis.regressions import speed_changes
+    from harness.store.rules import relative_spread
 
     times = [1.0, 1.0, 1.0, 1.0, 1.0, 1.3]
     assert [i for i, _ in speed_changes(times)] == [5]                         # no repeats: a 30 % step
@@ -176,7 +177,7 @@ def test_regressions_marks_the_commits_where_physics_and_speed_changed(tmp_path,
             source = fake_engine_source(9.81 * 1.1)
             files["engine/__main__.py"] = source
         if i == 6:   # speed: the engine reports twice the loop time from here on
-            files["engine/__main__.py"] = source.replace('"total": 0.002', '"total": 0.004')
+            files["engine/__main__.py"] = fake_engine_source(9.81 * 1.1, stepping=[0.004])
         commits.append(commit_daily(repo, files, f"change {i}"))
     targets = tmp_path / "targets"
     targets.mkdir()

@@ -8,10 +8,13 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
+import tempfile
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
 
 from django.contrib.auth import get_user_model
+from django.test import TestCase as DjangoTestCase
 
 from harness.store.models import (
     Build,
@@ -24,6 +27,31 @@ from harness.store.models import (
 )
 
 T0 = datetime(2026, 1, 5, 12, 0, tzinfo=timezone.utc)
+
+
+class FolderTestCase(DjangoTestCase):
+    """A Django TestCase whose class has a throw-away folder ``root`` for its run folders (named
+    ``folder_prefix...``), made before ``setUpTestData`` and removed after the class's tests."""
+
+    folder_prefix = "dashboard-"
+
+    @classmethod
+    def setUpClass(cls):
+        cls.root = Path(tempfile.mkdtemp(prefix=cls.folder_prefix))
+        super().setUpClass()
+
+    @classmethod
+    def tearDownClass(cls):
+        super().tearDownClass()
+        shutil.rmtree(cls.root, ignore_errors=True)
+
+
+class StoreTestCase(FolderTestCase):
+    """A FolderTestCase with the store of ``make_store`` (``s``: its objects by name)."""
+
+    @classmethod
+    def setUpTestData(cls):
+        cls.s = make_store(cls.root)
 STEPS = list(range(0, 2001, 100))
 LOG_WITH_MARKUP = "Step Atoms KinEng\n<script>alert('log')</script>\nLoop time of 1.5 on 1 procs\n"
 

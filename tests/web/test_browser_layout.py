@@ -5,6 +5,10 @@ Two rules a reader notices at once when broken, checked on every page at both wi
   "0.94 91");
 - the page itself never scrolls sideways; a table wider than the screen scrolls inside its own box.
 Full-page screenshots go to test-artifacts/layout_<page>_<width>.png, to be looked at.
+
+And on the pages with plots (run, consistency, compare, history, scaling), at both widths: no axis title
+overlaps its tick labels (uPlot draws both on a canvas, so the check measures the tick labels with the
+canvas' own font and compares them with the room uPlot left between the ticks and the title).
 """
 from __future__ import annotations
 
@@ -50,6 +54,36 @@ OVERFLOWING = """(width) => {
     if (!boxed) out.push(el.tagName.toLowerCase() + (el.className ? '.' + el.className : '') + ` (${Math.round(r.right)} px)`);
   }
   return out.slice(0, 10);
+}"""
+
+
+#: per drawn plot and axis with a title: the tick labels that need more room than the axis leaves them (its
+#: size less tick length and gap: beyond that the axis title is drawn); offenders as "plot title: axis: need > room"
+AXIS_OVERLAPS = """() => {
+  const out = [];
+  for (const figure of document.querySelectorAll('figure.chart')) {
+    const u = figure.uplot;
+    if (!u) continue;
+    u.axes.forEach((axis, i) => {
+      if (!axis.show || !axis.label || !axis._values || !axis._size) return;
+      const ctx = u.ctx;
+      ctx.save();
+      ctx.font = axis.font[0];              // uPlot's font at the device pixel ratio
+      const labels = axis._values.filter(v => v !== null && v !== undefined && String(v) !== '');
+      const widths = labels.map(v => ctx.measureText(String(v)).width / devicePixelRatio);
+      ctx.restore();
+      if (!widths.length) return;
+      const height = axis.font[2] || axis.font[1] / devicePixelRatio;   // css px
+      const angle = Math.abs((axis.rotate || 0) * Math.PI / 180);
+      const vertical = axis.side % 2 === 1;                             // left (3) or right (1)
+      const need = vertical ? Math.max(...widths)
+                            : Math.max(...widths.map(w => w * Math.sin(angle) + height * Math.cos(angle)));
+      const room = axis._size - (axis.ticks.show ? axis.ticks.size : 0) - axis.gap;
+      if (need > room + 0.5) out.push(`${u.root.querySelector('.u-title')?.innerText}: axis ${i} ` +
+                                      `(${axis.label}): tick labels need ${need.toFixed(1)} px, room ${room.toFixed(1)} px`);
+    });
+  }
+  return out;
 }"""
 
 
@@ -155,6 +189,44 @@ class LayoutTest(BrowserCase):
                     problems.append(f"{name} at {width} px: the page is {scroll} px wide, it scrolls sideways: "
                                     f"{page.evaluate(OVERFLOWING, width)}")
         assert not problems, "\n".join(problems)
+
+    def test_axis_titles_clear_the_tick_labels_on_every_plot(self):
+        from harness.store.models import Run
+
+        page = self.page
+        errors = []
+        page.on("pageerror", lambda error: errors.append(str(error)))
+        # stepping times of two commits as the bundled engine's oscillator has them: their log axis leaves
+        # some of its splits out (null), which the tick labels must survive
+        for key, stepping, wall in (("older", 0.2193, 3.60), ("inconsistent", 1.0432, 5.22)):
+            Run.objects.filter(pk=self.s[key].pk).update(stepping_time=stepping, wall_time=wall)
+        pages = {**self.pages(), **self.efficiency_pages()}
+        plotted = {name: pages[name] for name in ("run", "consistency", "compare", "history", "scaling",
+                                                  "scaling_build")}
+        problems, axes = [], 0
+        for width in WIDTHS:
+            page.set_viewport_size({"width": width, "height": 900})
+            for name, url in plotted.items():
+                page.goto(self.live_server_url + url)
+                page.wait_for_function("() => [...document.querySelectorAll('[data-plots]')]"
+                                       ".every(b => b.dataset.drawn !== undefined)")
+                drawn = page.evaluate("() => document.querySelectorAll('figure.chart').length")
+                assert drawn, f"{name}: no plots drawn"
+                axes += page.evaluate("() => [...document.querySelectorAll('figure.chart')]"
+                                      ".reduce((n, f) => n + f.uplot.axes.filter(a => a.label).length, 0)")
+                problems += [f"{name} at {width} px: {p}" for p in page.evaluate(AXIS_OVERLAPS)]
+        assert not errors, errors
+        assert axes > 20 and not problems, "\n".join(problems)
+
+    def test_the_axis_check_catches_tick_labels_under_the_title(self):
+        """The axis check can fail: the y axis of a run's plot squeezed to 20 px under labels like 0.0010."""
+        page = self.page
+        page.goto(self.live_server_url + f"/runs/{self.s['inconsistent'].pk}/")
+        assert self.charts_drawn("#run-plots")
+        assert page.evaluate(AXIS_OVERLAPS) == []
+        page.evaluate("""() => { const u = document.querySelector('figure.chart').uplot;
+                                 u.axes[1].size = () => 20; u.setSize({width: u.width - 10, height: u.height}); }""")
+        assert any("axis 1" in p for p in page.evaluate(AXIS_OVERLAPS))
 
     def test_the_checks_catch_a_broken_word_and_a_wide_page(self):
         """The two checks above can fail: a narrow cell breaking a long word, and a wide block."""

@@ -3,10 +3,8 @@ from __future__ import annotations
 
 import html as htmllib
 import re
-import tempfile
-from pathlib import Path
 
-from dashboard_data import T0, kinetic_energy, make_store, thesis_consistency
+from dashboard_data import T0, StoreTestCase, kinetic_energy, thesis_consistency
 from django.test import TestCase
 
 from harness.analysis.compare import compare_builds, rows, summary
@@ -20,12 +18,14 @@ def cells(html: str) -> list[list[str]]:
             for r in re.findall(r"<tr[^>]*>(.*?)</tr>", body, re.S)]
 
 
-class CompareBuildsTest(TestCase):
+class CompareBuildsTest(StoreTestCase):
+    folder_prefix = "compare-builds-"
+
     @classmethod
     def setUpTestData(cls):
         from harness.store.models import Run
 
-        cls.s = make_store(Path(tempfile.mkdtemp(prefix="compare-builds-")))
+        super().setUpTestData()
         # finished runs: an outdated run of an older build is, for that build, what it ended as
         Run.objects.exclude(state="not_executed").update(finished=T0)
         cls.old = Build.objects.get(commit="b" * 40)

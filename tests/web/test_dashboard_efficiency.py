@@ -4,13 +4,10 @@ The store is filled through the ORM; profiles are real folded-stack files in run
 from __future__ import annotations
 
 import re
-import shutil
-import tempfile
 import time
 from datetime import datetime, timedelta, timezone
-from pathlib import Path
 
-from django.test import TestCase
+from dashboard_data import FolderTestCase
 
 from harness.analysis import scaling
 from harness.store.models import Build, Machine, Run, Target
@@ -31,10 +28,11 @@ def breakdown(pair: float, neighbor: float, ranks: int = 1, spread: float = 0.0)
             "imbalance": (pair + spread) / pair if spread else None, "imbalance_of": "pair time" if spread else ""}
 
 
-class EfficiencyPagesTest(TestCase):
+class EfficiencyPagesTest(FolderTestCase):
+    folder_prefix = "efficiency-pages-"
+
     @classmethod
     def setUpTestData(cls):
-        cls.root = Path(tempfile.mkdtemp(prefix="efficiency-pages-"))
         machine = Machine.objects.create(name="ws")
         cls.target = target = Target.objects.create(name="lig")
         cls.case = case = Case.objects.create(path="liggghts/settling")
@@ -60,11 +58,6 @@ class EfficiencyPagesTest(TestCase):
                 config={"name": "serial"}, stepping_time=pair + 0.6, breakdown=breakdown(pair, 0.5),
                 folder=str(folder), profile="profile.folded"))
 
-    @classmethod
-    def tearDownClass(cls):
-        shutil.rmtree(cls.root, ignore_errors=True)
-        super().tearDownClass()
-
     def test_scaling_page_shows_the_figures_and_the_efficiency_over_commits(self):
         html = self.client.get("/scaling/").content.decode()
         self.assertIn("lig on ws: liggghts/settling/scaling", html)
@@ -84,16 +77,28 @@ class EfficiencyPagesTest(TestCase):
         current = self.builds[1]
         data = self.client.get(f"/scaling/{current.pk}/{self.case.path}/scaling.json").json()
         speedup, efficiency = data["plots"]
-        self.assertEqual(speedup["x"], [1, 2])
+        self.assertEqual((speedup["x"], speedup["xticks"]), ([0, 1], ["1", "2"]))  # one tick per core count
         self.assertEqual(speedup["series"][0]["values"], [1.0, 1.25])
         self.assertEqual(speedup["series"][1]["values"], [1.0, 2.0])
         self.assertEqual(efficiency["xticks"], ["a" * 10, "b" * 10])
         self.assertAlmostEqual(efficiency["series"][0]["values"][0], 10 / 5.5 / 2)
+        self.assertEqual(efficiency["ylimits"], [0.0, 1.05])                       # fractions: near [0, 1]
         self.assertEqual(self.client.get(f"/scaling/{current.pk}/{self.case.path}/nope.json").status_code, 404)
         older = self.client.get(f"/scaling/?build={self.builds[0].pk}").content.decode()
         table = older.split("scaling-table")[1].split("</table>")[0]
         self.assertIn("<td class=\"num\">1.818</td>", table)
         self.assertIn(f'href="/scaling/?build={self.builds[0].pk}"', self.client.get("/scaling/").content.decode())
+
+    def test_a_serial_fraction_beyond_the_axis_is_drawn_at_its_top_with_its_value_on_hover(self):
+        """A point slower on 2 cores than on 1 (speedup 0.1): Karp-Flatt e = 19; the efficiency axis stays
+        [0, 1.5] and e is drawn at 1.5, its value 19 on hover."""
+        current = self.builds[1]
+        Run.objects.filter(build=current, name__endswith="cores=2").update(stepping_time=100.0)
+        efficiency = self.client.get(f"/scaling/{current.pk}/{self.case.path}/scaling.json").json()["plots"][1]
+        serial = efficiency["series"][1]
+        self.assertEqual(efficiency["ylimits"], [0.0, 1.5])
+        self.assertEqual(serial["values"][1], 1.5)
+        self.assertAlmostEqual(serial["hover"][1], (1 / 0.1 - 1 / 2) / (1 - 1 / 2))
 
     def test_breakdown_over_commits_draws_one_bar_per_commit_on_one_scale(self):
         html = self.client.get(f"/breakdown/{self.target.pk}/{self.case.path}/").content.decode()

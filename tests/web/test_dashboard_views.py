@@ -3,14 +3,12 @@ from __future__ import annotations
 
 import json
 import re
-import shutil
-import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from dashboard_data import add_bulk_runs, make_store
+from dashboard_data import StoreTestCase, add_bulk_runs
 from django.db import connection
-from django.test import Client, TestCase
+from django.test import Client
 from django.test.utils import CaptureQueriesContext
 
 from harness.store.models import Override, Run
@@ -18,16 +16,8 @@ from harness.store.models import Override, Run
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
-class DashboardTest(TestCase):
-    @classmethod
-    def setUpTestData(cls):
-        cls.root = Path(tempfile.mkdtemp(prefix="dashboard-runs-"))
-        cls.s = make_store(cls.root)
-
-    @classmethod
-    def tearDownClass(cls):
-        super().tearDownClass()
-        shutil.rmtree(cls.root, ignore_errors=True)
+class DashboardTest(StoreTestCase):
+    folder_prefix = "dashboard-runs-"
 
     def get(self, url, **kw):
         response = self.client.get(url, **kw)
@@ -57,6 +47,18 @@ def cells(row: str) -> list[str]:
 
 
 class OverviewTest(DashboardTest):
+    def test_a_run_without_a_reference_run_is_counted_as_such_not_as_not_checked(self):
+        """A checked run whose reference target has no run of its content: "no reference run", the glossary's
+        level, in the overview's consistency cell and bar, and a category of its own in the folder filter."""
+        Run.objects.filter(pk=self.s["good"].pk).update(consistency="no_reference")
+        master = cells(target_rows(self.get("/").content.decode())["dem-master"])
+        self.assertEqual(master[6], "1 inconsistent 2 not checked 1 no reference run")
+        html = self.get(self.folder_url(mode="consistency", show="no_reference")).content.decode()
+        self.assertIn("no reference run", html)
+        self.assertEqual(list(Run.objects.in_category("no_reference").values_list("pk", flat=True)),
+                         [self.s["good"].pk])
+        self.assertNotIn(self.s["good"].pk, Run.objects.in_category("not_checked").values_list("pk", flat=True))
+
     def test_a_row_per_target_failing_first_with_the_check_verdict(self):
         html = self.get("/").content.decode()
         self.assertIn("machine ws1", html)
@@ -66,9 +68,9 @@ class OverviewTest(DashboardTest):
         # verdict, target, commit, passed, failed, not run (+ runs of older builds), consistency, lowest C
         # the run never executed is a failure of the gate, as in harness check (harness.analysis.coverage)
         self.assertEqual(master[:6], ["failed", "dem-master vs dem-v1", "cccccccccc HEAD", "1", "3", "0 +1 older"])
-        self.assertEqual(master[6], "1 consistent 1 inconsistent 2 not checked")
+        self.assertEqual(master[6], "1 inconsistent 2 not checked 1 consistent")  # counts that are not 0, worst first
         self.assertEqual(master[7], f"{self.s['c']:.4f}")
-        self.assertEqual(master[9], "2026-01-05 12:00")
+        self.assertEqual(master[9], "5 Jan 12:00")
         self.assertIn('title="faster neighbor list"', rows["dem-master"])  # the commit's subject on hover
         self.assertEqual(cells(rows["dem-v1"])[:6], ["passed", "dem-v1", "aaaaaaaaaa v1", "1", "0", "0"])
         # both modes show the same verdicts
@@ -309,9 +311,9 @@ class RunDetailTest(DashboardTest):
         self.assertIn(f"stdout of run {run.pk}", html)
         self.assertIn("faster neighbor list", html)                            # build information
         self.assertIn("c" * 40, html)
-        for category in ("pair", "neigh", "comm", "modify", "output", "other"):
+        for category in ("pair", "neighbor", "communication", "modify", "output", "other"):  # the breakdown's words
             self.assertIn(f"title=\"{category}:", html)
-        self.assertIn("pair: 0.400 s", html)
+        self.assertIn("pair: 0.4000 s", html)
         self.assertIn("post/dump_100.vtp", html)
         self.assertIn(f'data-plots="/runs/{run.pk}/plots.json"', html)
         specs = json.loads(self.get(f"/runs/{run.pk}/plots.json").content)["plots"]
@@ -405,8 +407,8 @@ class CompareTest(DashboardTest):
         a, b = self.s["reference"], self.s["inconsistent"]
         html = self.get(f"/compare/?run={a.pk}&run={b.pk}").content.decode()
         self.assertIn("Comparison of 2 runs", html)
-        self.assertIn("pair: 0.800 s", html)
-        self.assertIn("pair: 0.400 s", html)
+        self.assertIn("pair: 0.8000 s", html)
+        self.assertIn("pair: 0.4000 s", html)
         self.assertIn('<div class="del">-{&quot;run&quot;: 2000, &quot;dt&quot;: 1e-5}</div>', html)
         self.assertIn('<div class="add">+{&quot;run&quot;: 2000, &quot;dt&quot;: 2e-5}</div>', html)
         self.assertIn("run configuration: identical", html)
@@ -450,6 +452,18 @@ class CompareTest(DashboardTest):
         html = self.get(f"/compare/?run={self.s['older'].pk}&run={self.s['inconsistent'].pk}").content.decode()
         widths = re.findall(r'class="stack" style="width: ([\d.]+)%"', html)
         self.assertEqual(widths, ["100.0", "55.0"])  # 1.1 s of 2.0 s
+
+    def test_a_run_with_a_breakdown_and_no_timing_draws_its_time(self):
+        """Runs imported from another machine may carry the breakdown only: the bars read it (not 0 s)."""
+        older = self.s["older"]
+        Run.objects.filter(pk=older.pk).update(timing={}, breakdown={
+            "sections": {"pair": {"avg": 3.0, "min": 2.5, "max": 3.5}, "neighbor": {"avg": 1.0}}, "total": 4.0,
+            "ranks": 2, "imbalance": 3.5 / 3.0, "imbalance_of": "pair time"})
+        html = self.get(f"/compare/?run={older.pk}&run={self.s['inconsistent'].pk}").content.decode()
+        self.assertIn(f'#{older.pk} dem-master@', html)
+        self.assertIn('<span class="note">4.000 s</span>', html)
+        self.assertEqual(re.findall(r'class="stack" style="width: ([\d.]+)%"', html), ["100.0", "27.5"])
+        self.assertIn('title="pair: 3.0000 s"', html)
 
     def test_nothing_selected(self):
         self.assertIn("Select two or more runs", self.get("/compare/").content.decode())
@@ -535,7 +549,7 @@ class OverruleTest(DashboardTest):
         html = self.get("/?mode=consistency").content.decode()
         # the overruled run counts as consistent and as passed (the verdict of harness check)
         master = cells(target_rows(html)["dem-master"])
-        self.assertEqual(master[6], "2 consistent 0 inconsistent 2 not checked")
+        self.assertEqual(master[6], "2 not checked 2 consistent")  # counts that are not 0, the worst first
         self.assertEqual(master[3:5], ["2", "2"])  # the other failure: the run never executed
 
     def test_per_quantity_overrule_accepts_when_all_bad_quantities_are_covered(self):
@@ -648,7 +662,7 @@ class HistoryJunitStaticTest(DashboardTest):
         cases = {(c.get("classname"), c.get("name")): c for c in root.iter("testcase")}
         overruled = cases[("dem-master.contact_models.hooke.impact", "serial")]
         self.assertIsNone(overruled.find("failure"))
-        self.assertIn("run failure accepted by reviewer: known crash", overruled.findtext("system-out"))
+        self.assertIn("reviewer: known crash - overruled the run's failure", overruled.findtext("system-out"))
         self.assertEqual({s.get("name") for s in root.findall("testsuite")},
                          {"dem-master/contact_models/hooke/impact", "dem-master/contact_models/hertz/impact",
                           "dem-master/packing/settle"})

@@ -2,8 +2,9 @@
 from django import template
 from django.conf import settings
 
-from harness.report.glossary import ALL, define
-from webfrontend.presentation import TIMING_CATEGORIES
+from harness.analysis.compare import SPEED_WORDS
+from harness.config.record import STATE_LABELS
+from harness.report.glossary import ALL, define, level_word
 from webfrontend.presentation import provenance as facts
 from webfrontend.presentation import speed_change as change
 
@@ -11,13 +12,13 @@ register = template.Library()
 
 LABELS = {"successful": "successful", "failed": "failed", "not_executed": "not executed",
           "outdated": "outdated", "consistent": "consistent", "inconsistent": "inconsistent",
-          "not_checked": "not checked"}
+          "no_reference": "no reference run", "not_checked": "not checked"}
 
 
 @register.inclusion_tag("webfrontend/parts/bar.html")
 def tally_bar(tally, mode="state"):
     """Bar whose length is the share of successful (or consistent) runs, with the counts beside it."""
-    categories = (("consistent", "inconsistent", "not_checked") if mode == "consistency"
+    categories = (("consistent", "inconsistent", "no_reference", "not_checked") if mode == "consistency"
                   else ("successful", "failed", "not_executed"))
     return {"tally": tally, "percent": round(100 * tally.share(mode), 1), "color": bar_color(tally, mode),
             "counts": [(LABELS[c], c, tally.counts.get(c, 0)) for c in categories],
@@ -66,11 +67,6 @@ def c_value(value):
     return "-" if value is None else f"{value:.4f}"
 
 
-@register.simple_tag
-def timing_categories():
-    return TIMING_CATEGORIES
-
-
 @register.filter
 def num(value):
     """A float in its shortest exact-enough form (1000, 4.59e-05); '-' for none."""
@@ -103,7 +99,19 @@ def speed_change(speed):
     return change(speed["ratio"], speed.get("noise") or 0.0)
 
 
-VERDICT_LABELS = {"passed": "passed", "failed": "failed", "not_run": "not run"}
+@register.filter
+def state_word(state):
+    """A run state code in the glossary's words ("post_processed" -> "post-processed")."""
+    return STATE_LABELS.get(state, state)
+
+
+@register.filter
+def speed_word(kind):
+    """"slower", "faster" or "no speed change" (harness.store.rules.speed_kind), as ``harness compare`` says it."""
+    return SPEED_WORDS.get(kind, kind)
+
+
+VERDICT_LABELS = {"passed": "passed", "failed": "failed", "not_run": "not run", "skipped": "not run"}
 
 
 @register.filter
@@ -118,14 +126,10 @@ def glossary(term):
     return define(term)
 
 
-LEVEL_LABELS = {"perfect": "perfect", "good": "good", "inconsistent": "inconsistent", "no_reference": "no reference run",
-                "": "not checked", "length_mismatch": "length mismatch", "missing": "missing"}
-
-
 @register.filter
 def level_label(value):
-    """A consistency level in the glossary's words (lower case, as the CLI prints it)."""
-    return LEVEL_LABELS.get(value, value)
+    """A consistency level in the glossary's words (harness.report.glossary.level_word, as the CLI and JUnit)."""
+    return level_word(value)
 
 
 @register.filter

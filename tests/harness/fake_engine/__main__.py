@@ -12,6 +12,7 @@ import sys
 import time
 
 G = 9.81  # m/s^2; a later revision changes it to make an inconsistent version
+STEPPING = [0.002]  # s: the loop times reported by successive runs in one folder (harness run --repeat), in turn
 
 
 def main(argv):
@@ -96,8 +97,12 @@ def main(argv):
             write_vtp(command["file"], heights, mass, step * dt)
         else:
             error(f"unknown command {name!r}", 2)
-    json.dump({"pair": 0.001, "neigh": 0.0, "comm": 0.0, "modify": 0.0, "output": 0.0, "other": 0.0,
-               "total": 0.002, "steps": step, "particles": len(heights), "particle_steps_per_second": 1.0},
+    # the how-many-th run in this folder picks its loop time: a noisy or slower revision, reproducibly
+    runs = int(open(".fake_runs").read()) if os.path.exists(".fake_runs") else 0
+    open(".fake_runs", "w").write(str(runs + 1))
+    total = STEPPING[runs % len(STEPPING)]
+    json.dump({"pair": total / 2, "neigh": 0.0, "comm": 0.0, "modify": 0.0, "output": 0.0, "other": 0.0,
+               "total": total, "steps": step, "particles": len(heights), "particle_steps_per_second": 1.0},
               open("timing.json", "w"))
     log.write("run done\n")
     log.close()

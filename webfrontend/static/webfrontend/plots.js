@@ -16,19 +16,29 @@
   /* Tick labels of one axis in one form: all fixed-point with the decimals the tick step needs (0.0002,
    * 0.0010), or, for very large or very small values, all in exponent form with the digits that keep them
    * apart (2.0e-5, 1.2e-4) - never 0.001 beside 8.0000e-4. */
-  function ticks(splits) {
-    var finite = splits.filter(function (v) { return v !== null && isFinite(v); });
-    if (finite.length < 2) return splits.map(fmt);
-    var step = Math.abs(finite[1] - finite[0]) || Math.abs(finite[0]) || 1;
+  function ticks(splits, log) {
+    // a log axis leaves out some of its splits (null): they get no label
+    var blank = function (v) { return v === null || v === undefined || !isFinite(v); };
+    var finite = splits.filter(function (v) { return !blank(v); });
+    if (finite.length < 2) return splits.map(function (v) { return blank(v) ? "" : fmt(v); });
     var big = Math.max.apply(null, finite.map(Math.abs));
     if (big >= 1e5 || big < 1e-3) {
       for (var d = 0; d <= 6; d++) {
-        var labels = splits.map(function (v) { return v === 0 ? "0" : v.toExponential(d); });
-        if (new Set(labels).size === labels.length) return labels;
+        var labels = splits.map(function (v) { return blank(v) ? "" : v === 0 ? "0" : v.toExponential(d); });
+        if (new Set(labels.filter(Boolean)).size === labels.filter(Boolean).length) return labels;
       }
     }
+    // a log axis' ticks are not evenly spaced (0.2, 0.3, ... 1, 2): the smallest tick sets the decimals
+    var step = log ? Math.min.apply(null, finite.map(Math.abs).filter(function (v) { return v > 0; }))
+                   : Math.abs(finite[1] - finite[0]) || Math.abs(finite[0]) || 1;
     var decimals = Math.max(0, Math.min(12, Math.ceil(-Math.log10(step) - 1e-9)));
-    return splits.map(function (v) { return v.toFixed(decimals); });
+    return splits.map(function (v) { return blank(v) ? "" : v.toFixed(decimals); });
+  }
+
+  /* The tick labels of axis ``i`` of plot ``u``: ``ticks`` on its splits, told whether the scale is a log one. */
+  function axisTicks(u, splits, i) {
+    var scale = u.scales[u.axes[i].scale];
+    return ticks(splits, !!scale && scale.distr === 3);
   }
 
   /* Room for the y tick labels (px), so that the axis title never overlaps them. */
@@ -83,7 +93,7 @@
 
   function xAxis(spec) {
     var axis = { label: spec.xlabel, stroke: "#333", grid: { stroke: "#e4e4e4" },
-                 values: function (u, splits) { return ticks(splits); } };
+                 values: axisTicks };
     if (spec.xticks) {
       // a categorical abscissa (commits): ticks only at whole indices, named by their labels
       axis.incrs = [1, 2, 5, 10, 20, 50, 100];
@@ -121,11 +131,13 @@
       },
       // ticks in one form per axis (uPlot's default rounds 1.2e-3 and 1.4e-3 alike), room for them
       axes: [xAxis(spec), { label: spec.ylabel, stroke: "#333", size: ySize, grid: { stroke: "#e4e4e4" },
-                            values: function (u, splits) { return ticks(splits); } }],
+                            values: axisTicks }],
       cursor: { drag: { x: true, y: true, uni: 30 } },
       legend: { live: true },
       hooks: { draw: [markersHook(spec)] }
     };
+    // commit labels are drawn slanted from their tick: room on the right for the last one
+    if (spec.xticks) opts.padding = [null, 56, null, null];
     var data = [spec.x].concat(spec.series.map(function (s) { return s.values; }));
     var chart = new uPlot(opts, data, holder);
     // a band is one legend entry: its upper edge, named by the band; the lower edge stays out of the legend
