@@ -206,8 +206,16 @@ def _search(x, radius, cell, cell_start, nc, periodic, box, skin, slot, found, c
 def _compact(found, slot, start, new_j):
     """Each row from the candidate slots into the list, j increasing (the order of the force sums)."""
     for i in prange(start.shape[0] - 1):
-        m = start[i + 1] - start[i]
-        new_j[start[i]:start[i + 1]] = np.sort(found[slot[i]:slot[i] + m])
+        # insertion sort while copying: a row is short and, but across a periodic boundary, already in order (the
+        # search visits the neighbor cells in increasing index); np.sort would allocate a new array per row
+        s0 = start[i]
+        for m in range(start[i + 1] - s0):
+            value = found[slot[i] + m]
+            p = s0 + m
+            while p > s0 and new_j[p - 1] > value:
+                new_j[p] = new_j[p - 1]
+                p -= 1
+            new_j[p] = value
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
