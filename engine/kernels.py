@@ -307,7 +307,8 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
 '''
 #: particles per block of the pair loop (a thread's unit of work; the results do not depend on it)
 PAIR_BLOCK = 512
-#: list entries per sweep of a block: the length of the columns (about 40 doubles per entry: 160 kB, in L2)
+#: list entries per sweep of a block: the length of the columns (about 40 doubles per entry: 330 kB, in L2). Not a
+#: multiple of 512: columns 4 kB apart share the same L1 cache sets (at 512 the pair pass took twice as long)
 CONTACT_CHUNK = 1032
 #: the columns of `cin` (gathered per contact): name -> what the gather stores; then one per parameter column
 #: of the type pair (pp{c}) and per history double (h{h})
