@@ -4,7 +4,9 @@ Measured here, on one core, with small compiled loops (Numba, as the engine):
 - memory bandwidth: the STREAM triad a = b + s c over arrays far larger than the caches (GB/s, counting the
   write-allocate read of a: 32 B per element);
 - throughput of the scalar operations the contact code is made of: multiply-add pairs, divisions and square
-  roots (8 independent chains each, so that latency does not count).
+  roots (8 independent chains each, so that latency does not count);
+- and of divisions and square roots in a loop LLVM vectorizes (arrays in L1), as the pair pass's contact sweep
+  is compiled (engine/kernels.py PAIR_FORCES): the compute limit of a contact uses this rate.
 
 The contact counts come from the engine itself: a settling run of N spheres (engine/examples/settling.json, one
 thread) gives its contacts (thermo `contacts`) and listed pairs (the neighbor list of a restart file written at
@@ -84,6 +86,13 @@ def _div_sqrt_chains(n, x):
     return a0 + a1 + a2 + a3 + a4 + a5 + a6 + a7
 
 
+@njit(cache=True, error_model="numpy")
+def _div_sqrt_vector(a, out, rounds):
+    for _ in range(rounds):
+        for i in range(a.shape[0]):
+            out[i] = math.sqrt(a[i]) + 1.5 / a[i]
+
+
 def best_of(fn, repeat=5) -> float:
     times = []
     for _ in range(repeat):
@@ -103,7 +112,10 @@ def machine() -> dict:
     flops = 16 * steps / best_of(lambda: _fma_chains(steps, 1.0))
     _div_sqrt_chains(10, 1.0)
     roots = 8 * steps / best_of(lambda: _div_sqrt_chains(steps, 1.0))
-    return {"bandwidth": bandwidth, "flops": flops, "div_sqrt": roots}
+    a, out, rounds = np.linspace(1.0, 2.0, 2048), np.zeros(2048), 5000
+    _div_sqrt_vector(a, out, 1)
+    vector = 2 * a.shape[0] * rounds / best_of(lambda: _div_sqrt_vector(a, out, rounds))
+    return {"bandwidth": bandwidth, "flops": flops, "div_sqrt": roots, "div_sqrt_vector": vector}
 
 
 def engine_counts(n: int, steps: int) -> dict:
@@ -140,21 +152,22 @@ def main():
     args = parser.parse_args()
     m = machine()
     print(f"this machine, one core: STREAM triad {m['bandwidth'] / 1e9:.1f} GB/s, multiply-add "
-          f"{m['flops'] / 1e9:.2f} Gflop/s, divisions/square roots {m['div_sqrt'] / 1e9:.3f} G/s")
+          f"{m['flops'] / 1e9:.2f} Gflop/s, divisions/square roots {m['div_sqrt'] / 1e9:.3f} G/s scalar, "
+          f"{m['div_sqrt_vector'] / 1e9:.3f} G/s vectorized")
     counts = engine_counts(args.particles, args.steps)
     contacts = counts["contacts"]
     pairs = counts["pairs"]
     timing = counts["timing"]
     ps = timing["particle_steps"]
 
-    def limit(work, times):
+    def limit(work, times, roots_rate=m["div_sqrt"]):
         flops, roots, nbytes = work
-        compute = (flops / m["flops"] + roots / m["div_sqrt"]) * times
+        compute = (flops / m["flops"] + roots / roots_rate) * times
         memory = nbytes * times / m["bandwidth"]
         return compute, memory
 
     c_pair, m_pair = limit(PAIR_TEST, pairs)
-    c_contact, m_contact = limit(CONTACT, contacts)
+    c_contact, m_contact = limit(CONTACT, contacts, m["div_sqrt_vector"])  # the vectorized contact sweep
     c_part, m_part = limit(PARTICLE, 1.0)
     print(f"settling scene, {counts['particles']} spheres, {args.steps} steps: {contacts:.2f} contacts and "
           f"{pairs:.2f} listed pairs per particle (half list) at the end")

@@ -20,6 +20,7 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
+import re
 import sys
 from collections import namedtuple
 from dataclasses import field, make_dataclass
@@ -198,6 +199,18 @@ RESET_HISTORY = "for h in range(${width}):\n    ${target} = 0.0\n"
 #: sum bitwise as it is, since sums that start at +0.0 or m g never become -0.0): every iteration writes only
 #: rows of its own particle and its own pairs, no two threads write the same memory. On one thread i adds to
 #: j directly, in the same order (the former serial loop).
+#:
+#: The pairs are taken a block of PAIR_BLOCK particles at a time (the unit of work of a thread), and the
+#: block's list entries CONTACT_CHUNK at a time, in three sweeps. (1) gather: the entries in contact, with what
+#: their force reads (distance vector, radii, masses, relative velocity, spins, the type pair's parameters,
+#: history) into the columns of `cin`; the others get their history reset. (2) contact: the force of every
+#: gathered contact, a loop without loads from particle arrays, which LLVM turns into SIMD instructions (square
+#: roots and divisions, which bound a contact's cost, 4 or 8 at a time; it does so only when the columns are a
+#: constant distance apart: CONTACT_CHUNK is a literal); what each contact adds to i, j or its reaction row goes
+#: to a column of `cout`. (3) sums: the contacts in list order add those columns exactly as the one-pass loop
+#: added them (same operands, same order, the history written back; a particle's own sum once its row ended):
+#: the bytes do not change (vector sqrt and division round as the scalar ones do, and nothing is contracted or
+#: reassociated: benchmarks/engine_identical.py compares every run of testcases/).
 PAIR_FORCES = '''\
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
 def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
@@ -209,40 +222,130 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
     pair_hist = nbr.hist
     rslot = nbr.rslot
     reaction = nbr.reaction
-    for i in prange(n):
-        ${particle_head}
-        ${body_i}
-        for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            dx = xi0 - x[j, 0]
-            dy = xi1 - x[j, 1]
-            dz = xi2 - x[j, 2]
-            ${periodic_image}
-            rsq = dx * dx + dy * dy + dz * dz
-            rj = radius[j]
-            radsum = ri + rj
-            ${row}
-            ${same_body}
-            if rsq >= radsum * radsum:
-                ${reset_history}
-                ${zero_row}
-                continue
-            r = sqrt(rsq)
-            enx = dx / r
-            eny = dy / r
-            enz = dz / r
-            d = radsum - r
-            mj = mass[j]
-            tj = ptype[j]
-            meff = mi * mj / (mi + mj)
-            reff = ri * rj / radsum
-            vrx = vix - v[j, 0]
-            vry = viy - v[j, 1]
-            vrz = viz - v[j, 2]
-            vn = vrx * enx + vry * eny + vrz * enz
-            ${contact}
-        ${own_sum}
+    nblocks = (n + ${block} - 1) // ${block}
+    for blk in prange(nblocks):
+        b = blk * ${block}
+        e = min(b + ${block}, n)
+        cin = np.empty((${nin}, ${chunk}))
+        cout = np.empty((${nout}, ${chunk}))
+        ck = np.empty(${chunk}, dtype=np.int64)
+        cj = np.empty(${chunk}, dtype=np.int64)
+        ci = np.empty(${chunk}, dtype=np.int64)
+        gi = b
+        row_end = nbr_start[b + 1]
+        cur = b
+        ${zero_sums}
+        for c0 in range(nbr_start[b], nbr_start[e], ${chunk}):
+            m = 0
+            i = gi  # the sweep (2) before left other values in ri, mi, ...
+            ${gather_head}
+            ${body_i}
+            for k in range(c0, min(c0 + ${chunk}, nbr_start[e])):
+                if k >= row_end:
+                    gi += 1
+                    while nbr_start[gi + 1] <= k:
+                        gi += 1
+                    row_end = nbr_start[gi + 1]
+                    i = gi
+                    ${gather_head}
+                    ${body_i}
+                j = nbr_j[k]
+                dx = xi0 - x[j, 0]
+                dy = xi1 - x[j, 1]
+                dz = xi2 - x[j, 2]
+                ${periodic_image}
+                rsq = dx * dx + dy * dy + dz * dz
+                rj = radius[j]
+                radsum = ri + rj
+                ${row}
+                ${same_body}
+                if rsq >= radsum * radsum:
+                    ${reset_history}
+                    ${zero_row}
+                    continue
+                ck[m] = k
+                cj[m] = j
+                ci[m] = gi
+                cin[0, m] = dx
+                cin[1, m] = dy
+                cin[2, m] = dz
+                cin[3, m] = rsq
+                m += 1
+            for cq in range(m):
+                i = ci[cq]
+                j = cj[cq]
+                k = ck[cq]
+                ${gather}
+            for cq in range(m):
+                ${load}
+                r = sqrt(rsq)
+                enx = dx / r
+                eny = dy / r
+                enz = dz / r
+                radsum = ri + rj
+                d = radsum - r
+                meff = mi * mj / (mi + mj)
+                reff = ri * rj / radsum
+                vn = vrx * enx + vry * eny + vrz * enz
+                ${contact}
+                ${store}
+            for cq in range(m):
+                owner = ci[cq]
+                while cur < owner:
+                    i = cur
+                    ${own_sum}
+                    ${zero_sums}
+                    cur += 1
+                k = ck[cq]
+                j = cj[cq]
+                ${row}
+                ${sums}
+        while cur < e:
+            i = cur
+            ${own_sum}
+            ${zero_sums}
+            cur += 1
 '''
+#: particles per block of the pair loop (a thread's unit of work; the results do not depend on it)
+PAIR_BLOCK = 512
+#: list entries per sweep of a block: the length of the columns (about 40 doubles per entry: 330 kB, in L2). Not a
+#: multiple of 512: columns 4 kB apart share the same L1 cache sets (at 512 the pair pass took twice as long)
+CONTACT_CHUNK = 1032
+#: the columns of `cin` (gathered per contact): name -> what the gather stores; then one per parameter column
+#: of the type pair (pp{c}) and per history double (h{h})
+CONTACT_INPUTS = {"dx": None, "dy": None, "dz": None, "rsq": None, "ri": "radius[i]", "rj": "radius[j]",
+                  "mi": "mass[i]", "mj": "mass[j]", "vrx": "v[i, 0] - v[j, 0]", "vry": "v[i, 1] - v[j, 1]",
+                  "vrz": "v[i, 2] - v[j, 2]", "wix": "omega[i, 0]", "wiy": "omega[i, 1]", "wiz": "omega[i, 2]",
+                  "wj0": "omega[j, 0]", "wj1": "omega[j, 1]", "wj2": "omega[j, 2]"}
+#: a line of contact code that adds to a sum of i, of j or to j's reaction row (the only lines with effects
+#: beyond the contact: models.py and CONTACT write them at the top level of a contact)
+_SUM_LINE = re.compile(r"^(?P<target>tix|tiy|tiz|fix|fiy|fiz|f\[j, \d\]|torque\[j, \d\]|reaction\[q, \d+\])"
+                       r" (?P<op>\+=|-=|=) (?P<expr>.+)$")
+
+
+def split_contact(code: str, parameters: int, history: int) -> tuple:
+    """The pair contact code (contact_code(c, "pair")) as the contact sweep's code and the sums sweep's code
+    (see PAIR_FORCES): every line adding to a sum stores its operand in a column of `cout` instead, and the sums
+    sweep adds that column in the same order; the type pair's parameters, j's spin and the history are read
+    from the gathered locals. Returns (contact code, sums code, columns of cout)."""
+    code = re.sub(r"pp\[ti, tj, (\d+)\]", r"pp\1", code)
+    code = re.sub(r"omega\[j, (\d)\]", r"wj\1", code)
+    code = re.sub(r"pair_hist\[k, (\d+)\]", r"h\1", code)
+    contact, sums = [], []
+    for line in code.splitlines():
+        m = _SUM_LINE.match(line)
+        if m is None:
+            contact.append(line)
+            continue
+        column = len(sums)
+        contact.append(f"cout[{column}, cq] = {m['expr']}")
+        sums.append(f"{m['target']} {m['op']} cout[{column}, cq]")
+    text = "\n".join(contact) + "\n"
+    left = re.findall(r"\b(?:x|v|f|omega|torque|radius|mass|ptype|pair_hist|reaction|ti|tj|j|k|q)\b(?!\w)", text)
+    if left or any(line.startswith((" ", "\t")) and _SUM_LINE.match(line.strip()) for line in code.splitlines()):
+        raise ValueError(f"pair contact code reads particle arrays or sums inside a branch: {sorted(set(left))}")
+    return text, "\n".join(sums) + "\n", len(sums)
+
 
 #: a wall has infinite radius and mass (R* = r_i, m* = m_i); each shape's contacts (engine/walls/)
 WALLS = """\
@@ -587,9 +690,23 @@ def _pair_forces(c: Combination) -> str:
     body_slots = dict(same_body_head=clumps.SAME_BODY_HEAD, body_i="body_i = member_body[pid[i]]",
                       same_body=render(clumps.SAME_BODY, zero_row=zero_row)) if c.clumps else \
         dict(same_body_head=None, body_i=None, same_body=None)
-    return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), particle_head=PARTICLE_HEAD,
-                  periodic_image=periodic, row="q = rslot[k]" if rows else "", reset_history=_reset_history(c, "pair"),
-                  zero_row=zero_row, contact=contact_code(c, "pair"), own_sum=OWN_SUM[rows],
+    nparam, width = len(c.parameter_columns()), c.history_width
+    inputs = dict(CONTACT_INPUTS)
+    inputs.update({f"pp{col}": f"pp[ti, tj, {col}]" for col in range(nparam)})
+    inputs.update({f"h{h}": f"pair_hist[k, {h}]" for h in range(width)})
+    gather = "".join(f"cin[{col}, cq] = {value}\n" for col, value in enumerate(inputs.values()) if value)
+    gather = "ti = ptype[i]\ntj = ptype[j]\n" + gather if nparam else gather
+    load = "".join(f"{name} = cin[{col}, cq]\n" for col, name in enumerate(inputs))
+    first_hist = len(inputs) - width
+    store = "".join(f"cin[{first_hist + h}, cq] = h{h}\n" for h in range(width))
+    contact, sums, nout = split_contact(contact_code(c, "pair"), nparam, width)
+    sums = "".join(f"pair_hist[k, {h}] = cin[{first_hist + h}, cq]\n" for h in range(width)) + sums
+    head = PARTICLE_HEAD[:PARTICLE_HEAD.index("fix = 0.0")]
+    return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), gather_head=head, block=str(PAIR_BLOCK), chunk=str(CONTACT_CHUNK),
+                  zero_sums=PARTICLE_HEAD[PARTICLE_HEAD.index("fix = 0.0"):],
+                  nin=str(len(inputs)), nout=str(max(nout, 1)), gather=gather, load=load, store=store, sums=sums,
+                  periodic_image=periodic, row="q = rslot[k]" if rows else "",
+                  reset_history=_reset_history(c, "pair"), zero_row=zero_row, contact=contact, own_sum=OWN_SUM[rows],
                   bodies=", bodies" if c.clumps else "", **body_slots)
 
 

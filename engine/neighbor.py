@@ -103,20 +103,6 @@ def _neighbor_cells(c, nc, periodic):
 
 
 @njit(cache=True, error_model="numpy")
-def _owner(start, k):
-    """The row i of pair k (start[i] <= k < start[i+1])."""
-    lo = 0
-    hi = start.shape[0] - 1
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if start[mid] <= k:
-            lo = mid
-        else:
-            hi = mid
-    return lo
-
-
-@njit(cache=True, error_model="numpy")
 def _find(row, value):
     """Index of value in the sorted array row, or -1."""
     lo = 0
@@ -176,25 +162,35 @@ def _candidates(cell, cell_start, nc, periodic, count):
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
 def _search(x, radius, cell, cell_start, nc, periodic, box, skin, slot, found, count):
     """Neighbors j > i within r_i + r_j + skin into found[slot[i]:], their number into count[i]."""
+    p0 = periodic[0]
+    p1 = periodic[1]
+    p2 = periodic[2]
+    b0 = box[0]
+    b1 = box[1]
+    b2 = box[2]
     for i in prange(cell.shape[0]):
         c = cell[i]
         mx, my, mz, ox, oy, oz = _neighbor_cells(c, nc, periodic)
         ri = radius[i]
+        # i's position in locals: the stores into found might alias x for all the compiler knows
+        xi0 = x[i, 0]
+        xi1 = x[i, 1]
+        xi2 = x[i, 2]
         m = slot[i]
         for qa in range(mx):
             for qb in range(my):
                 for qc in range(mz):
                     cc = (ox[qa] * nc[1] + oy[qb]) * nc[2] + oz[qc]
                     for j in range(max(cell_start[cc], i + 1), cell_start[cc + 1]):
-                        d0 = x[i, 0] - x[j, 0]
-                        d1 = x[i, 1] - x[j, 1]
-                        d2 = x[i, 2] - x[j, 2]
-                        if periodic[0]:
-                            d0 -= box[0] * np.rint(d0 / box[0])
-                        if periodic[1]:
-                            d1 -= box[1] * np.rint(d1 / box[1])
-                        if periodic[2]:
-                            d2 -= box[2] * np.rint(d2 / box[2])
+                        d0 = xi0 - x[j, 0]
+                        d1 = xi1 - x[j, 1]
+                        d2 = xi2 - x[j, 2]
+                        if p0:
+                            d0 -= b0 * np.rint(d0 / b0)
+                        if p1:
+                            d1 -= b1 * np.rint(d1 / b1)
+                        if p2:
+                            d2 -= b2 * np.rint(d2 / b2)
                         cut = ri + radius[j] + skin
                         if d0 * d0 + d1 * d1 + d2 * d2 < cut * cut:
                             found[m] = j
@@ -206,18 +202,26 @@ def _search(x, radius, cell, cell_start, nc, periodic, box, skin, slot, found, c
 def _compact(found, slot, start, new_j):
     """Each row from the candidate slots into the list, j increasing (the order of the force sums)."""
     for i in prange(start.shape[0] - 1):
-        m = start[i + 1] - start[i]
-        new_j[start[i]:start[i + 1]] = np.sort(found[slot[i]:slot[i] + m])
+        # insertion sort while copying: a row is short and, but across a periodic boundary, already in order (the
+        # search visits the neighbor cells in increasing index); np.sort would allocate a new array per row
+        s0 = start[i]
+        for m in range(start[i + 1] - s0):
+            value = found[slot[i] + m]
+            p = s0 + m
+            while p > s0 and new_j[p - 1] > value:
+                new_j[p] = new_j[p - 1]
+                p -= 1
+            new_j[p] = value
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _carry_history(order, new_index, old, old_pair, new_start, new_j, new_hist, transfer):
+def _carry_history(order, old, new_start, new_j, new_hist, transfer):
     """Each new pair takes the history of the same pair in the old list (times transfer, per column, when i and
     j swapped roles).
 
-    New particle p (old index order[p]) owns its pairs with larger new indices; it finds them among its old
-    pairs as owner (old row) and as partner (old_pair: the pair k of each partner-ordered row). Every new row
-    is written by its owner only.
+    New pair (p, b) is old pair (order[p], order[b]): it is found in the old row of the smaller old index (a
+    binary search in a row of a few entries); with order[b] the owner there, i and j swapped roles. Every new
+    row is written by its owner only.
     """
     n_old = old.start.shape[0] - 1
     width = new_hist.shape[1]
@@ -225,22 +229,20 @@ def _carry_history(order, new_index, old, old_pair, new_start, new_j, new_hist, 
         op = order[p]
         if op >= n_old:
             continue
-        row = new_j[new_start[p]:new_start[p + 1]]
-        for k in range(old.start[op], old.start[op + 1]):
-            b = new_index[old.j[k]]
-            if b > p:
-                pos = _find(row, b)
+        for k in range(new_start[p], new_start[p + 1]):
+            ob = order[new_j[k]]
+            if ob >= n_old:
+                continue
+            if op < ob:
+                pos = _find(old.j[old.start[op]:old.start[op + 1]], ob)
                 if pos >= 0:
                     for h in range(width):
-                        new_hist[new_start[p] + pos, h] = old.hist[k, h]
-        for q in range(old.rstart[op], old.rstart[op + 1]):
-            k = old_pair[q]
-            a = new_index[_owner(old.start, k)]
-            if a > p:
-                pos = _find(row, a)
+                        new_hist[k, h] = old.hist[old.start[op] + pos, h]
+            else:
+                pos = _find(old.j[old.start[ob]:old.start[ob + 1]], op)
                 if pos >= 0:
                     for h in range(width):
-                        new_hist[new_start[p] + pos, h] = transfer[h] * old.hist[k, h]
+                        new_hist[k, h] = transfer[h] * old.hist[old.start[ob] + pos, h]
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
@@ -314,9 +316,9 @@ def _grid(x, radius, kept, lo, box, periodic, skin):
 
 
 @njit(cache=True, error_model="numpy")
-def _sort_by_cell(cell_of, kept, ncells, n):
+def _sort_by_cell(cell_of, kept, ncells):
     """Counting sort of the kept particles by cell (stable, so deterministic): (new order as old indices, cell
-    of each new index, first new index of each cell, new index of each old one or -1)."""
+    of each new index, first new index of each cell)."""
     nk = kept.shape[0]
     cell_start = _bucket_starts(cell_of[:nk], ncells)
     fill = cell_start[:-1].copy()
@@ -327,10 +329,7 @@ def _sort_by_cell(cell_of, kept, ncells, n):
         order[fill[c]] = kept[q]
         new_cell[fill[c]] = c
         fill[c] += 1
-    new_index = -np.ones(n, dtype=np.int64)
-    for q in range(nk):
-        new_index[order[q]] = q
-    return order, new_cell, cell_start, new_index
+    return order, new_cell, cell_start
 
 
 @njit(cache=True, error_model="numpy")
@@ -371,17 +370,14 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer):
     ncells = nc[0] * nc[1] * nc[2]
     cell_of = np.empty(nk, dtype=np.int64)
     _cells(x, kept, origin, cell_size, nc, cell_of)
-    order, new_cell, cell_start, new_index = _sort_by_cell(cell_of, kept, ncells, n)
+    order, new_cell, cell_start = _sort_by_cell(cell_of, kept, ncells)
     reorder(s, order)
     new_start, new_j = _pairs(x, s.radius, new_cell, cell_start, nc, periodic, box, skin)
     m = new_start[nk]
     width = nbr.hist.shape[1]
     new_hist = np.zeros((m if width > 0 else 0, width))
     if width > 0:
-        old_pair = np.empty(nbr.rslot.shape[0], dtype=np.int64)  # the pair of each row (partner order)
-        for k in range(old_pair.shape[0]):
-            old_pair[nbr.rslot[k]] = k
-        _carry_history(order, new_index, nbr, old_pair, new_start, new_j, new_hist, transfer)
+        _carry_history(order, nbr, new_start, new_j, new_hist, transfer)
     rstart, rslot = reverse_index(new_start, new_j, nk)
     _copy_positions(x, s.x_build, nk)
     return nk, NeighborList(new_start, new_j, new_hist, rstart, rslot, np.empty((m, nbr.reaction.shape[1])))

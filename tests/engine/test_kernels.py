@@ -1,6 +1,7 @@
 """The kernel builder: contact laws as data, templates with named slots, only the named effects compiled."""
 import dataclasses
 import math
+import re
 
 import numpy as np
 # at module level: inside a test, "conftest" is whichever folder's conftest the session imported last
@@ -34,7 +35,10 @@ def test_a_new_contact_law_is_one_entry(monkeypatch):
     c = Combination(normal="linear_test", tangential="none", planes=True)
     assert c.parameter_columns() == {"ystar": 0, "friction": 1}
     source = generate_source(c)
-    assert source.count("hooke_normal(d, vn, pp[ti, tj, 0], pp[ti, tj, 1], reff, meff, char_vel)") == 2  # pair, wall
+    # the wall reads the type pair's table; the pair loop the columns its gather sweep copied (kernels.PAIR_FORCES)
+    assert source.count("hooke_normal(d, vn, pp[ti, tj, 0], pp[ti, tj, 1], reff, meff, char_vel)") == 1
+    assert source.count("hooke_normal(d, vn, pp0, pp1, reff, meff, char_vel)") == 1
+    assert "cin[17, cq] = pp[ti, tj, 0]" in source and "cin[18, cq] = pp[ti, tj, 1]" in source
     assert "from engine.contact_laws import hooke_normal" in source
     compile(source, "kernel", "exec")
     materials = {1: (1e7, 0.3, 2500.0)}
@@ -53,7 +57,9 @@ def test_history_and_reaction_columns_follow_the_named_laws():
     rolling_only = Combination(normal="hooke", tangential="none", rolling="epsd2", parallel=True)
     assert rolling_only.history_offsets() == {"rolling": 0} and rolling_only.reaction_columns() == {
         "force": 0, "rolling": 3}
-    assert "pair_hist[k, 0], pair_hist[k, 1], pair_hist[k, 2] = rtx, rty, rtz" in generate_source(rolling_only)
+    rolling_source = generate_source(rolling_only)
+    # the contact sweep updates the gathered history, the sums sweep writes it back (kernels.PAIR_FORCES)
+    assert "h0, h1, h2 = rtx, rty, rtz" in rolling_source and "pair_hist[k, 2] = cin[" in rolling_source
     bare = Combination(normal="hertz", tangential="none", parallel=True)
     assert bare.history_width == 0 and bare.reaction_width == 3 and list(bare.parameter_columns()) == [
         "ystar", "gstar", "beta"]
@@ -81,9 +87,12 @@ def test_the_generated_loops_are_parallel_and_thread_safe_by_construction():
     assert without_planes.count("in prange(") == 3 and "def plane_reach" not in without_planes
     # one thread: the former serial loop, the partner's force added at once (the same sums in the same order)
     serial = generate_source(dataclasses.replace(combination, parallel=False))
-    assert "parallel=PARALLEL" not in serial and "f[j, 0] -= fx" in serial and "reaction[q" not in serial
+    assert "parallel=PARALLEL" not in serial and "reaction[q" not in serial
+    mine, partner = re.findall(r"cout\[(\d+), cq\] = fx\n", serial)  # what i adds, what j takes
+    assert f"fix += cout[{mine}, cq]" in serial and f"f[j, 0] -= cout[{partner}, cq]" in serial
     assert "f[j" not in source and "torque[j" not in source
-    assert "reaction[q, 3] = crj * tqx" in source and "reaction[q, 6] = rtx" in source
+    assert re.search(r"cout\[(\d+), cq\] = crj \* tqx", source) and "reaction[q, 3] = cout[" in source
+    assert "reaction[q, 6] = cout[" in source
     assert kernels.Constants._fields == ("dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin",
                                         "history_transfer")
 
@@ -117,8 +126,9 @@ def test_a_new_kind_of_submodel_is_one_row_plus_its_law(tmp_path):
         assert c.history_transfer() == (-1.0, -1.0, -1.0, 1.0)
         assert c.reaction_columns() == {"force": 0, "tangential": 3, "twisting": 6}
         source = kernels.generate_source(c)
-        assert "reaction[q, 6] = mtx" in source and source.count("rolling_cdt(wrelx") == 2  # pair and walls
-        assert "pp[ti, tj, 4], pair_hist[k, 3], reff)" in source and "pp[ti, tj, 4], wall_hist[i, w, 3], reff)" in source
+        assert "] = mtx" in source and "reaction[q, 6] = cout[" in source
+        assert source.count("rolling_cdt(wrelx") == 2  # pair and walls
+        assert "pp4, h3, reff)" in source and "pp[ti, tj, 4], wall_hist[i, w, 3], reff)" in source
         compile(source, "kernel", "exec")
         sim = simulation.Simulation.__new__(simulation.Simulation)
         sim.materials = {1: (1e7, 0.3, 2500.0)}

@@ -143,6 +143,9 @@ def test_neighbor_list_matches_brute_force_after_reordering_and_loss(periodic):
         kept2, nbr2 = rebuild(s, kept, nbr, lo, hi, periodic, skin, 2, lost_record(kept), np.array([-1.0, 1.0, -1.0]))
         s = particle_state.trimmed(s, kept2)
         assert listed_pairs(s, nbr2, kept2) == brute_force_pairs(s.x, s.radius, s.pid, lo, hi, periodic, skin)
+        # each row in increasing j (the order of the force sums; the history carry searches the rows)
+        for p in range(kept2):
+            assert np.all(np.diff(nbr2.j[nbr2.start[p]:nbr2.start[p + 1]]) > 0)
         owner2 = np.repeat(np.arange(kept2), np.diff(nbr2.start))
         for k in range(len(nbr2.j)):
             a, b = s.pid[owner2[k]], s.pid[nbr2.j[k]]
