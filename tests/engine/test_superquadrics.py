@@ -399,13 +399,14 @@ def _write_stl(path, triangles):
     return str(path)
 
 
-def _grid(half, cells):
-    """A flat square [-half, half]^2 at z = 0 as cells x cells squares, each split into two triangles."""
-    s = np.linspace(-half, half, cells + 1)
+def _grid(x0, x1, y0, y1, cell):
+    """A flat rectangle [x0, x1] x [y0, y1] at z = 0 as squares of side cell, each split into two triangles."""
+    xs = np.linspace(x0, x1, round((x1 - x0) / cell) + 1)
+    ys = np.linspace(y0, y1, round((y1 - y0) / cell) + 1)
     out = []
-    for a in range(cells):
-        for b in range(cells):
-            p = [(s[a], s[b], 0.0), (s[a + 1], s[b], 0.0), (s[a + 1], s[b + 1], 0.0), (s[a], s[b + 1], 0.0)]
+    for a in range(len(xs) - 1):
+        for b in range(len(ys) - 1):
+            p = [(xs[a], ys[b], 0.0), (xs[a + 1], ys[b], 0.0), (xs[a + 1], ys[b + 1], 0.0), (xs[a], ys[b + 1], 0.0)]
             out += [[p[0], p[1], p[2]], [p[0], p[2], p[3]]]
     return np.array(out)
 
@@ -419,7 +420,7 @@ def test_body_on_a_mesh_floor_follows_the_plane(engine_run, tmp_path, blockiness
     """A tilted, spinning body thrown onto a floor of 800 triangles (5 mm squares, smaller than the body: its
     contact crosses faces and their shared edges) moves as on the plane z = 0: face contacts have the
     plane's normal and depth, the flat edges between the triangles add nothing, history carries over."""
-    floor = _write_stl(tmp_path / "floor.stl", _grid(0.05, 20))
+    floor = _write_stl(tmp_path / "floor.stl", _grid(-0.05, 0.05, -0.05, 0.05, 0.005))
     body = sq((0.001, 0.002, 0.0075), (0.01, 0.006, 0.004), blockiness, velocity=(0.4, 0.1, -0.5),
               omega=(3, -8, 2), orientation={"axis": [1, 1, 0], "angle": 40})
     names = ["x", "y", "z", "vx", "vy", "vz", "lx", "ly", "lz"]
@@ -439,12 +440,12 @@ def test_body_on_a_mesh_floor_follows_the_plane(engine_run, tmp_path, blockiness
 
 @pytest.mark.parametrize("theta", [35.0])
 def test_ellipsoid_slides_down_an_inclined_mesh(engine_run, tmp_path, theta):
-    """The incline of test_ellipsoid_on_an_incline_... as a mesh of 10 mm triangles turned by theta about y:
-    the acceleration along it is g (sin theta - mu cos theta)."""
+    """The incline of test_ellipsoid_on_an_incline_... as a mesh of 10 mm triangles along the body's path,
+    turned by theta about y: the acceleration along it is g (sin theta - mu cos theta)."""
     mu = 0.5
     th = math.radians(theta)
-    turn = np.array([[math.cos(th), 0, math.sin(th)], [0, 1, 0], [-math.sin(th), 0, math.cos(th)]])
-    tris = _grid(0.1, 20) @ turn.T
+    turn = np.array([[math.cos(th), 0, -math.sin(th)], [0, 1, 0], [math.sin(th), 0, math.cos(th)]])
+    tris = _grid(-0.3, 0.05, -0.02, 0.02, 0.01) @ turn.T
     incline = _write_stl(tmp_path / "incline.stl", tris)
     normal = turn @ np.array([0, 0, 1.0])
     assert normal[0] == pytest.approx(-math.sin(th))
