@@ -534,13 +534,63 @@ def _plane_forces(sq, laws, walls, dt, char_vel, record):
                 walls.torque[w, 2] -= tz
 
 
+#: mesh triangles whose unit normals' dot product is at least 1 - FLAT (about 4.5e-5 rad apart) and whose corners
+#: lie within FLAT_OFFSET of the bounding radius of each other's plane count as one plane for superquadric
+#: contacts: an STL file keeps float32 corners, so the triangles of a turned flat face are coplanar only to
+#: about 1e-7 rad - more than the 1e-12 of engine/mesh.py flat_parts, which decides for spheres (whose edge
+#: contact equals the face contact there anyway)
+FLAT = 1e-9
+FLAT_OFFSET = 1e-6
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _parallel(tn, t, u):
+    return abs(tn[t, 0] * tn[u, 0] + tn[t, 1] * tn[u, 1] + tn[t, 2] * tn[u, 2]) >= 1.0 - FLAT
+
+
 @njit(cache=True, error_model="numpy", inline="always")
 def _coplanar(tv, tn, t, u, tol):
-    """Triangles t and u lie in one plane (normals parallel to 1e-12, u's corner within tol (m) of t's plane)."""
-    dot = tn[t, 0] * tn[u, 0] + tn[t, 1] * tn[u, 1] + tn[t, 2] * tn[u, 2]
+    """Triangles t and u lie in one plane (normals parallel to FLAT, u's corner within tol (m) of t's plane)."""
     off = ((tv[u, 0, 0] - tv[t, 0, 0]) * tn[t, 0] + (tv[u, 0, 1] - tv[t, 0, 1]) * tn[t, 1]
            + (tv[u, 0, 2] - tv[t, 0, 2]) * tn[t, 2])
-    return abs(dot) >= 1.0 - 1e-12 and abs(off) <= tol
+    return _parallel(tn, t, u) and abs(off) <= tol
+
+
+@njit(cache=True, error_model="numpy")
+def _flat_part(walls, t, region):
+    """Whether the edge or corner `region` of triangle t (engine/mesh.py closest_point) lies inside a flat part
+    of its mesh, to FLAT: an edge shared with exactly one other triangle, parallel to t; a corner whose fan of
+    triangles is closed (every neighbouring vertex is shared by two of them) and parallel to t."""
+    vid = walls.tri_vid
+    a = vid[t, region - 1] if region <= 3 else vid[t, region - 4]
+    first = walls.fan_start[a]
+    last = walls.fan_start[a + 1]
+    if region <= 3:
+        b = vid[t, region % 3]
+        others = 0
+        for k in range(first, last):
+            u = walls.fan_tri[k]
+            if u != t and (vid[u, 0] == b or vid[u, 1] == b or vid[u, 2] == b):
+                others += 1
+                if not _parallel(walls.tri_n, t, u):
+                    return False
+        return others == 1
+    for k in range(first, last):
+        u = walls.fan_tri[k]
+        if not _parallel(walls.tri_n, t, u):
+            return False
+        for c in range(3):
+            w = vid[u, c]
+            if w == a:
+                continue
+            sharing = 0
+            for h in range(first, last):
+                f = walls.fan_tri[h]
+                if vid[f, 0] == w or vid[f, 1] == w or vid[f, 2] == w:
+                    sharing += 1
+            if sharing != 2:
+                return False
+    return True
 
 
 @njit(cache=True, error_model="numpy")
@@ -550,14 +600,14 @@ def _mesh_forces(sq, laws, walls, dt, char_vel, record):
 
     - face: m the triangle's unit normal on the body's side, s = p(-m) the body's deepest point along it, d its
       depth below the triangle's plane; a contact of normal m and overlap d (as on a plane) when s projects
-      into the triangle;
+      into the triangle or onto its border (within FLAT_OFFSET of the bounding radius);
     - edge or corner, when it projects outside: q the triangle's point closest to that projection, the normal
       n = (x - q) / |x - q| (from q to the centre), the overlap d = h(-n) - |x - q| (h the body's support
       function: how far the body reaches past q along -n; r - |x - q| for a sphere). An edge or corner inside
-      a flat part of the mesh (engine/mesh.py flat_parts) does not count: the coplanar neighbour holds the
+      a flat part of the mesh (`_flat_part`, to FLAT) does not count: the coplanar neighbour holds the
       projection.
 
-    One contact per body and plane of triangles: a contact whose normal equals one already taken this step
+    One contact per body and plane of triangles: a contact whose normal equals (to FLAT) one already taken this step
     (a face on the shared edge of two coplanar triangles, an edge seen from both of its triangles) is the
     same contact. History (shear displacement) per slot, keyed by the triangle and carried to a coplanar
     triangle (a body sliding over a flat mesh keeps it). Contact point midway between the body's deepest
@@ -597,14 +647,19 @@ def _mesh_forces(sq, laws, walls, dt, char_vel, record):
             d = -((sx - tv[t, 0, 0]) * mx + (sy - tv[t, 0, 1]) * my + (sz - tv[t, 0, 2]) * mz)
             if not d > 0.0:  # the body does not reach the triangle's plane
                 continue
-            qx, qy, qz, region = closest_point(sx + d * mx, sy + d * my, sz + d * mz, tv, t)
-            face = region == 0
+            ox = sx + d * mx
+            oy = sy + d * my
+            oz = sz + d * mz
+            qx, qy, qz, region = closest_point(ox, oy, oz, tv, t)
+            # on the triangle's border (to round-off) is in it: a body over a shared edge or corner of a flat
+            # part, whose projection each of its triangles puts on its border, takes the face contact (once)
+            face = region == 0 or (ox - qx) ** 2 + (oy - qy) ** 2 + (oz - qz) ** 2 <= (FLAT_OFFSET * r) ** 2
             if face:
                 enx = mx
                 eny = my
                 enz = mz
             else:
-                if walls.tri_flat[t, region - 1] != 0:
+                if _flat_part(walls, t, region):
                     continue
                 gx = xi0 - qx
                 gy = xi1 - qy
@@ -625,9 +680,9 @@ def _mesh_forces(sq, laws, walls, dt, char_vel, record):
                 u = sq.mesh_tri[i, k]
                 if u < 0 or u >= ntri:
                     continue
-                same = u == t or (face and _coplanar(tv, tn, u, t, 1e-9 * r))
+                same = u == t or (face and _coplanar(tv, tn, u, t, FLAT_OFFSET * r))
                 if seen[k] and (same or sq.mesh_hist[i, k, 3] * enx + sq.mesh_hist[i, k, 4] * eny
-                                + sq.mesh_hist[i, k, 5] * enz >= 1.0 - 1e-12):
+                                + sq.mesh_hist[i, k, 5] * enz >= 1.0 - FLAT):
                     duplicate = True
                     break
                 if same and slot < 0:
