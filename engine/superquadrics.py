@@ -34,8 +34,8 @@ superquadrics: slots ``${sq_*}``). What this module holds:
   iteration for the orientation quaternion (engine/clumps.py `rotate`: one home for that rule).
 
 Contacts: superquadric-superquadric (every pair whose bounding spheres overlap: O(N^2) tests per step, for
-scenes of up to a few hundred bodies) and superquadric-plane. Spheres, cylinders and meshes do not touch
-superquadrics (the run refuses such scenes, engine/runner.py).
+scenes of up to a few hundred bodies), superquadric-plane and superquadric-mesh triangle (`_mesh_forces`).
+Spheres and cylinders do not touch superquadrics (the run refuses such scenes, engine/runner.py).
 """
 from __future__ import annotations
 
