@@ -33,8 +33,8 @@ superquadrics: slots ``${sq_*}``). What this module holds:
 - **integration**: velocity Verlet for the centre of mass and the angular momentum, the clumps' Richardson
   iteration for the orientation quaternion (engine/clumps.py `rotate`: one home for that rule).
 
-Contacts: superquadric-superquadric (every pair whose bounding spheres overlap: O(N^2) tests per step, for
-scenes of up to a few hundred bodies), superquadric-plane and superquadric-mesh triangle (`_mesh_forces`).
+Contacts: superquadric-superquadric (every pair whose bounding spheres overlap, found through a cell grid
+rebuilt every step: O(N)), superquadric-plane and superquadric-mesh triangle (`_mesh_forces`).
 Spheres and cylinders do not touch superquadrics (the run refuses such scenes, engine/runner.py).
 """
 from __future__ import annotations
@@ -411,6 +411,76 @@ def _push(sq, k, sign, fx, fy, fz, cx, cy, cz):
     sq.torque[k, 2] += sign * tz
 
 
+#: the cell grid of the pair search holds at most this many cells per body (a body far from the others makes
+#: the cells larger rather than the grid huge)
+CELLS_PER_BODY = 8
+
+
+@njit(cache=True, error_model="numpy")
+def _cell_grid(x, radius):
+    """The bodies sorted into a grid of cubic cells of side at least twice the largest bounding radius, so
+    that two bodies whose bounding spheres overlap lie in the same or neighbouring cells (the engine's cell
+    list for spheres, engine/neighbor.py, in its plainest form; rebuilt every step, it costs O(N)). Returns
+    (cell_start: the bodies of cell k are order[cell_start[k]:cell_start[k + 1]], in increasing index; order;
+    cell_of: each body's cell; nc: cells per axis)."""
+    nb = x.shape[0]
+    nc = np.ones(3, dtype=np.int64)
+    lo = np.zeros(3)
+    side = 1.0
+    if nb > 0:
+        side = 2.0 * np.max(radius)
+        for a in range(3):
+            lo[a] = np.min(x[:, a])
+        while True:
+            total = 1
+            for a in range(3):
+                span = np.max(x[:, a]) - lo[a]
+                # a non-finite position (a run blowing up) puts every body in one cell along that axis
+                nc[a] = max(1, int(span / side) + 1) if span < 1e300 else 1
+                total *= nc[a]
+            if total <= CELLS_PER_BODY * nb + 27:
+                break
+            side *= 2.0
+    cell_of = np.empty(nb, dtype=np.int64)
+    cell_start = np.zeros(nc[0] * nc[1] * nc[2] + 1, dtype=np.int64)
+    for i in range(nb):
+        cx = max(0, min(int((x[i, 0] - lo[0]) / side), nc[0] - 1))
+        cy = max(0, min(int((x[i, 1] - lo[1]) / side), nc[1] - 1))
+        cz = max(0, min(int((x[i, 2] - lo[2]) / side), nc[2] - 1))
+        cell_of[i] = (cx * nc[1] + cy) * nc[2] + cz
+        cell_start[cell_of[i] + 1] += 1
+    for k in range(len(cell_start) - 1):
+        cell_start[k + 1] += cell_start[k]
+    fill = cell_start[:-1].copy()
+    order = np.empty(nb, dtype=np.int64)
+    for i in range(nb):  # in increasing index within each cell
+        order[fill[cell_of[i]]] = i
+        fill[cell_of[i]] += 1
+    return cell_start, order, cell_of, nc
+
+
+@njit(cache=True, error_model="numpy")
+def _neighbours(i, cell_start, order, cell_of, nc, near):
+    """The bodies j > i in i's cell and the 26 around it, into near[:count] in increasing j (the order of the
+    all-pairs loop, so that forces add up in the same order); returns count."""
+    k = cell_of[i]
+    cz = k % nc[2]
+    cy = (k // nc[2]) % nc[1]
+    cx = k // (nc[1] * nc[2])
+    count = 0
+    for ax in range(max(cx - 1, 0), min(cx + 2, nc[0])):
+        for ay in range(max(cy - 1, 0), min(cy + 2, nc[1])):
+            for az in range(max(cz - 1, 0), min(cz + 2, nc[2])):
+                cell = (ax * nc[1] + ay) * nc[2] + az
+                for h in range(cell_start[cell], cell_start[cell + 1]):
+                    j = order[h]
+                    if j > i:
+                        near[count] = j
+                        count += 1
+    near[:count].sort()
+    return count
+
+
 @njit(cache=True, error_model="numpy")
 def _pair_forces(sq, laws, dt, char_vel):
     x = sq.x
@@ -418,9 +488,13 @@ def _pair_forces(sq, laws, dt, char_vel):
     shape = sq.shape
     nb = len(sq.mass)
     seen = np.zeros(SLOTS, dtype=np.bool_)
+    cell_start, order, cell_of, nc = _cell_grid(x, sq.radius)
+    near = np.empty(nb, dtype=np.int64)
     for i in range(nb):
         seen[:] = False
-        for j in range(i + 1, nb):
+        count = _neighbours(i, cell_start, order, cell_of, nc, near)
+        for c in range(count):
+            j = near[c]
             dx = x[i, 0] - x[j, 0]
             dy = x[i, 1] - x[j, 1]
             dz = x[i, 2] - x[j, 2]
