@@ -465,3 +465,29 @@ def test_ellipsoid_slides_down_an_inclined_mesh(engine_run, tmp_path, theta):
     analytic = 9.81 * (math.sin(th) - mu * math.cos(th))
     assert acceleration == pytest.approx(analytic, rel=0.03)
     assert s[-1] - s[0] > 0.03  # over several triangles
+
+
+# ---------------------------------------------------------------- pair search
+
+
+@pytest.mark.parametrize("count, spread", [(1, 0.01), (50, 0.01), (400, 0.05), (400, 1.0)])
+def test_cell_grid_finds_every_pair_of_overlapping_bounding_spheres(count, spread):
+    """The cell grid's candidates hold every pair j > i whose bounding spheres overlap (against all pairs), in
+    increasing j; one body far away (a grid that would be huge) makes the cells larger, not the search wrong."""
+    rng = np.random.default_rng(count)
+    x = rng.uniform(0, spread, size=(count, 3))
+    if count > 1:
+        x[-1] = (50.0, -30.0, 80.0)
+    radius = rng.uniform(0.001, 0.004, size=count)
+    cell_start, order, cell_of, nc = superquadrics._cell_grid(x, radius)
+    assert np.prod(nc) <= superquadrics.CELLS_PER_BODY * count + 27
+    near = np.empty(count, dtype=np.int64)
+    found = set()
+    for i in range(count):
+        k = superquadrics._neighbours(i, cell_start, order, cell_of, nc, near)
+        assert np.all(np.diff(near[:k]) > 0) and np.all(near[:k] > i)
+        found |= {(i, int(j)) for j in near[:k] if np.sum((x[i] - x[j]) ** 2) < (radius[i] + radius[j]) ** 2}
+    want = {(i, j) for i in range(count) for j in range(i + 1, count)
+            if np.sum((x[i] - x[j]) ** 2) < (radius[i] + radius[j]) ** 2}
+    assert found == want
+    assert count < 50 or spread > 0.05 or len(want) > 20  # the dense cases do have pairs
