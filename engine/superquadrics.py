@@ -1048,8 +1048,15 @@ def restore(sim, data: dict):
     if "sq_mass" not in data:
         sim.superquadrics = None
         return
-    arrays = {name: np.ascontiguousarray(data[key]) for key, name in RESTART_ARRAYS.items()}
-    nb = len(arrays["mass"])
+    nb = len(data["sq_mass"])
+    # files written before superquadrics touched meshes hold no mesh contacts: none open
+    defaults = {"sq_mesh_tri": np.full((nb, MESH_SLOTS), -1, dtype=np.int64),
+                "sq_mesh_hist": np.zeros((nb, MESH_SLOTS, 6))}
+    missing = [key for key in RESTART_ARRAYS if key not in data and key not in defaults]
+    if missing:
+        raise ValueError(f"the superquadric arrays {', '.join(missing)} are missing")
+    arrays = {name: np.ascontiguousarray(data[key] if key in data else defaults[key])
+              for key, name in RESTART_ARRAYS.items()}
     shapes = dict(x=(nb, 3), v=(nb, 3), q=(nb, 4), angmom=(nb, 3), omega=(nb, 3), inertia=(nb, 3), mass=(nb,),
                   shape=(nb, 5), radius=(nb,), rcap=(nb,), ptype=(nb,), sid=(nb,), force=(nb, 3), torque=(nb, 3),
                   partner=(nb, SLOTS), hist=(nb, SLOTS, SLOT_WIDTH), mesh_tri=(nb, MESH_SLOTS),
