@@ -424,7 +424,7 @@ def test_body_on_a_mesh_floor_follows_the_plane(engine_run, tmp_path, blockiness
     body = sq((0.001, 0.002, 0.0075), (0.01, 0.006, 0.004), blockiness, velocity=(0.4, 0.1, -0.5),
               omega=(3, -8, 2), orientation={"axis": [1, 1, 0], "angle": 40})
     names = ["x", "y", "z", "vx", "vy", "vz", "lx", "ly", "lz"]
-    cols = [f"sq_{n}[1]" for n in names]
+    cols = [f"sq_{n}[1]" for n in names] + ["wall_fx[floor]", "wall_fz[floor]"]  # and what the floor takes
     code, folder = engine_run(_scene([body], [plane("floor", "z", 0.0)], steps=40000, columns=cols), sub="plane")
     assert code == 0, (folder / "log.dem").read_text()
     want = read_csv(folder / "thermo.csv")
@@ -433,6 +433,7 @@ def test_body_on_a_mesh_floor_follows_the_plane(engine_run, tmp_path, blockiness
     got = read_csv(folder / "thermo.csv")
     assert abs(want["sq_x[1]"][-1] - want["sq_x[1]"][0]) > 0.003  # it slid across triangles
     assert abs(want["sq_lx[1]"]).max() > 0  # and turned
+    assert abs(want["wall_fz[floor]"]).max() > 0  # printed while touching
     for name in cols:
         scale = abs(want[name]).max()
         assert np.allclose(got[name], want[name], rtol=0, atol=1e-9 * scale), name
