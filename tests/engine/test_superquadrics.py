@@ -421,7 +421,7 @@ def test_body_on_a_mesh_floor_follows_the_plane(engine_run, tmp_path, blockiness
     contact crosses faces and their shared edges) moves as on the plane z = 0: face contacts have the
     plane's normal and depth, the flat edges between the triangles add nothing, history carries over."""
     floor = _write_stl(tmp_path / "floor.stl", _grid(-0.05, 0.05, -0.05, 0.05, 0.005))
-    body = sq((0.001, 0.002, 0.0075), (0.01, 0.006, 0.004), blockiness, velocity=(0.4, 0.1, -0.5),
+    body = sq((0.001, 0.002, 0.011), (0.01, 0.006, 0.004), blockiness, velocity=(0.4, 0.1, -0.5),
               omega=(3, -8, 2), orientation={"axis": [1, 1, 0], "angle": 40})
     names = ["x", "y", "z", "vx", "vy", "vz", "lx", "ly", "lz"]
     cols = [f"sq_{n}[1]" for n in names] + ["wall_fx[floor]", "wall_fz[floor]"]  # and what the floor takes
