@@ -13,8 +13,13 @@ Part 3, superquadrics (engine/superquadrics.py): a settling pile of M superquadr
 (aspect ratio 2; ellipsoids, n = 2, and blocky, n = 6) against M spheres of radius r, same box, same contact
 model: body-steps per CPU second.
 
+Part 4, the superquadrics' pair search: piles of ellipsoids as in part 3 with the box widened as sqrt(N / 300),
+so that the height stays the same, for N = 300 and 3000, run by the engine of --sq-base (the all-pairs search)
+and by this working tree (the cell grid), alternating: body-steps per CPU second of each.
+
     python benchmarks/engine_shapes.py [--base REV] [--side 16] [--steps 2000] [--repeat 3] [--clumps 1000]
-                                       [--superquadrics 300] [--sq-steps 20000] [--parts 1,2,3]
+                                       [--superquadrics 300] [--sq-steps 20000] [--parts 1,2,3,4]
+                                       [--sq-base REV] [--grid-steps 2000]
 """
 from __future__ import annotations
 
@@ -74,10 +79,9 @@ def pile(count: int, clumps: bool, steps: int) -> list:
     return commands + [{"command": "run", "steps": steps}]
 
 
-def superquadric_pile(count: int, blockiness: float | None, steps: int) -> list:
-    """count superquadrics of half-axes 2r, r, r and the given blockiness packed at random in a tall box (or, for
-    blockiness None, count spheres of radius r), settling."""
-    width = 0.03
+def superquadric_pile(count: int, blockiness: float | None, steps: int, width: float = 0.03) -> list:
+    """count superquadrics of half-axes 2r, r, r and the given blockiness packed at random in a tall box of the
+    given width (m; or, for blockiness None, count spheres of radius r), settling."""
     height = 0.0012 * count / (width / 0.03) ** 2 + 0.02
     region = {"shape": "box", "lo": [0.0, 0.0, 0.0], "hi": [width, width, height]}
     commands = [{"command": "create", "object": "domain", "lo": [-0.01, -0.01, -0.01],
@@ -105,6 +109,25 @@ def loop_cpu(engine_root: Path, commands: list) -> dict:
         return json.loads((folder / "timing.json").read_text())
 
 
+def pair_search(args):
+    print(f"pair search: ellipsoid piles (half-axes 2r, r, r), {args.grid_steps} steps, one thread; "
+          f"base {args.sq_base} against this tree")
+    with tempfile.TemporaryDirectory() as tmp:
+        base = Path(tmp)
+        archive = subprocess.run(["git", "archive", args.sq_base, "engine"], cwd=REPO, capture_output=True, check=True)
+        subprocess.run(["tar", "-x", "-C", str(base)], input=archive.stdout, check=True)
+        for count in (300, 3000):
+            width = 0.03 * (count / 300) ** 0.5
+            for _ in range(args.repeat):
+                rates = []
+                for name, root in (("base", base), ("new", REPO)):
+                    loop_cpu(root, superquadric_pile(count, 2, 10, width))  # compile outside the timed run
+                    t = loop_cpu(root, superquadric_pile(count, 2, args.grid_steps, width))
+                    rates.append(t["particle_steps"] / t["cpu"])
+                print(f"  {count} bodies: base {rates[0]:.3g}, this {rates[1]:.3g} body-steps per CPU s "
+                      f"(ratio {rates[1] / rates[0]:.2f})")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--base", default="3579291", help="revision of the engine before clumps")
@@ -114,7 +137,9 @@ def main():
     parser.add_argument("--clumps", type=int, default=1000)
     parser.add_argument("--superquadrics", type=int, default=300)
     parser.add_argument("--sq-steps", type=int, default=20000, help="steps of part 3 (the pile settles in about 0.2 s)")
-    parser.add_argument("--parts", default="1,2,3", help="which parts to run (comma-separated)")
+    parser.add_argument("--parts", default="1,2,3", help="which parts to run (comma-separated; 4 on request)")
+    parser.add_argument("--sq-base", default="94574c4", help="revision of part 4's base (superquadric pairs all against all)")
+    parser.add_argument("--grid-steps", type=int, default=2000, help="steps of part 4")
     args = parser.parse_args()
     parts = {int(p) for p in args.parts.split(",")}
     if 1 in parts:
@@ -123,6 +148,8 @@ def main():
         clump_pile(args)
     if 3 in parts:
         superquadric_piles(args)
+    if 4 in parts:
+        pair_search(args)
 
 
 def spheres_against_base(args):

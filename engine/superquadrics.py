@@ -33,9 +33,9 @@ superquadrics: slots ``${sq_*}``). What this module holds:
 - **integration**: velocity Verlet for the centre of mass and the angular momentum, the clumps' Richardson
   iteration for the orientation quaternion (engine/clumps.py `rotate`: one home for that rule).
 
-Contacts: superquadric-superquadric (every pair whose bounding spheres overlap: O(N^2) tests per step, for
-scenes of up to a few hundred bodies) and superquadric-plane. Spheres, cylinders and meshes do not touch
-superquadrics (the run refuses such scenes, engine/runner.py).
+Contacts: superquadric-superquadric (every pair whose bounding spheres overlap, found through a cell grid
+rebuilt every step: O(N)), superquadric-plane and superquadric-mesh triangle (`_mesh_forces`).
+Spheres and cylinders do not touch superquadrics (the run refuses such scenes, engine/runner.py).
 """
 from __future__ import annotations
 
@@ -49,23 +49,27 @@ from .contact_laws import (effective_youngs_modulus, hertz_normal, hooke_normal,
                            tangential_no_history)
 from .jit import njit
 from .models import PARAMETERS
+from .mesh import closest_point
 from .walls import surface_speeds
 
 #: contacts a superquadric keeps history for with partners of higher index (pairs are held by their lower index)
 SLOTS = 16
 #: per contact slot: shear displacement (3, m) and the last normal (3) that starts the next Newton search
 SLOT_WIDTH = 6
+#: mesh contacts a superquadric keeps history for (one per plane of touching triangles, or per edge or corner)
+MESH_SLOTS = 8
 
 Superquadrics = namedtuple("Superquadrics", [
     "x", "v", "q", "angmom", "omega", "inertia", "mass", "shape", "radius", "rcap", "ptype", "sid", "force",
-    "torque", "partner", "hist", "wall_hist", "rot", "status"])
+    "torque", "partner", "hist", "wall_hist", "mesh_tri", "mesh_hist", "rot", "status"])
 Superquadrics.__doc__ = (
     "Superquadric bodies: centre x (m), velocity v (m/s), orientation q (w, x, y, z; body frame -> space), "
     "angular momentum (kg m^2/s, space frame), angular velocity omega (rad/s, space frame), principal moments "
     "inertia (kg m^2, about the body axes x, y, z), mass (kg), shape (a, b, c in m, n1, n2), bounding radius "
     "(m), curvature radius cap rcap (m), type (0-based), id (from 1), force (N) and torque (N m) of the last "
     "force evaluation, per contact slot the partner index (-1: free) and history, per plane the wall history "
-    "(shear displacement, m), rotation matrices (work space), status [slots overflowed].")
+    "(shear displacement, m), per mesh contact slot its triangle (-1: free) and history (shear displacement, m; "
+    "contact normal), rotation matrices (work space), status [slots overflowed].")
 
 #: per type pair, the columns the superquadric contact reads (engine/models.py PARAMETERS: one home for them)
 LAW_COLUMNS = ("ystar", "gstar", "beta", "log_e", "friction")
@@ -92,7 +96,8 @@ def empty(planes: int = 0) -> Superquadrics:
                          np.zeros((0, 3)), np.zeros(0), np.zeros((0, 5)), np.zeros(0), np.zeros(0),
                          np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 3)),
                          np.zeros((0, 3)), np.zeros((0, SLOTS), dtype=np.int64), np.zeros((0, SLOTS, SLOT_WIDTH)),
-                         np.zeros((0, planes, 3)), np.zeros((0, 3, 3)), np.zeros(1, dtype=np.int64))
+                         np.zeros((0, planes, 3)), np.zeros((0, MESH_SLOTS), dtype=np.int64),
+                         np.zeros((0, MESH_SLOTS, 6)), np.zeros((0, 3, 3)), np.zeros(1, dtype=np.int64))
 
 
 # ---------------------------------------------------------------- shape: mass properties
@@ -406,6 +411,76 @@ def _push(sq, k, sign, fx, fy, fz, cx, cy, cz):
     sq.torque[k, 2] += sign * tz
 
 
+#: the cell grid of the pair search holds at most this many cells per body (a body far from the others makes
+#: the cells larger rather than the grid huge)
+CELLS_PER_BODY = 8
+
+
+@njit(cache=True, error_model="numpy")
+def _cell_grid(x, radius):
+    """The bodies sorted into a grid of cubic cells of side at least twice the largest bounding radius, so
+    that two bodies whose bounding spheres overlap lie in the same or neighbouring cells (the engine's cell
+    list for spheres, engine/neighbor.py, in its plainest form; rebuilt every step, it costs O(N)). Returns
+    (cell_start: the bodies of cell k are order[cell_start[k]:cell_start[k + 1]], in increasing index; order;
+    cell_of: each body's cell; nc: cells per axis)."""
+    nb = x.shape[0]
+    nc = np.ones(3, dtype=np.int64)
+    lo = np.zeros(3)
+    side = 1.0
+    if nb > 0:
+        side = 2.0 * np.max(radius)
+        for a in range(3):
+            lo[a] = np.min(x[:, a])
+        while True:
+            total = 1
+            for a in range(3):
+                span = np.max(x[:, a]) - lo[a]
+                # a non-finite position (a run blowing up) puts every body in one cell along that axis
+                nc[a] = max(1, int(span / side) + 1) if span < 1e300 else 1
+                total *= nc[a]
+            if total <= CELLS_PER_BODY * nb + 27:
+                break
+            side *= 2.0
+    cell_of = np.empty(nb, dtype=np.int64)
+    cell_start = np.zeros(nc[0] * nc[1] * nc[2] + 1, dtype=np.int64)
+    for i in range(nb):
+        cx = max(0, min(int((x[i, 0] - lo[0]) / side), nc[0] - 1))
+        cy = max(0, min(int((x[i, 1] - lo[1]) / side), nc[1] - 1))
+        cz = max(0, min(int((x[i, 2] - lo[2]) / side), nc[2] - 1))
+        cell_of[i] = (cx * nc[1] + cy) * nc[2] + cz
+        cell_start[cell_of[i] + 1] += 1
+    for k in range(len(cell_start) - 1):
+        cell_start[k + 1] += cell_start[k]
+    fill = cell_start[:-1].copy()
+    order = np.empty(nb, dtype=np.int64)
+    for i in range(nb):  # in increasing index within each cell
+        order[fill[cell_of[i]]] = i
+        fill[cell_of[i]] += 1
+    return cell_start, order, cell_of, nc
+
+
+@njit(cache=True, error_model="numpy")
+def _neighbours(i, cell_start, order, cell_of, nc, near):
+    """The bodies j > i in i's cell and the 26 around it, into near[:count] in increasing j (the order of the
+    all-pairs loop, so that forces add up in the same order); returns count."""
+    k = cell_of[i]
+    cz = k % nc[2]
+    cy = (k // nc[2]) % nc[1]
+    cx = k // (nc[1] * nc[2])
+    count = 0
+    for ax in range(max(cx - 1, 0), min(cx + 2, nc[0])):
+        for ay in range(max(cy - 1, 0), min(cy + 2, nc[1])):
+            for az in range(max(cz - 1, 0), min(cz + 2, nc[2])):
+                cell = (ax * nc[1] + ay) * nc[2] + az
+                for h in range(cell_start[cell], cell_start[cell + 1]):
+                    j = order[h]
+                    if j > i:
+                        near[count] = j
+                        count += 1
+    near[:count].sort()
+    return count
+
+
 @njit(cache=True, error_model="numpy")
 def _pair_forces(sq, laws, dt, char_vel):
     x = sq.x
@@ -413,9 +488,13 @@ def _pair_forces(sq, laws, dt, char_vel):
     shape = sq.shape
     nb = len(sq.mass)
     seen = np.zeros(SLOTS, dtype=np.bool_)
+    cell_start, order, cell_of, nc = _cell_grid(x, sq.radius)
+    near = np.empty(nb, dtype=np.int64)
     for i in range(nb):
         seen[:] = False
-        for j in range(i + 1, nb):
+        count = _neighbours(i, cell_start, order, cell_of, nc, near)
+        for c in range(count):
+            j = near[c]
             dx = x[i, 0] - x[j, 0]
             dy = x[i, 1] - x[j, 1]
             dz = x[i, 2] - x[j, 2]
@@ -529,6 +608,210 @@ def _plane_forces(sq, laws, walls, dt, char_vel, record):
                 walls.torque[w, 2] -= tz
 
 
+#: mesh triangles whose unit normals' dot product is at least 1 - FLAT (about 4.5e-5 rad apart) and whose corners
+#: lie within FLAT_OFFSET of the bounding radius of each other's plane count as one plane for superquadric
+#: contacts: an STL file keeps float32 corners, so the triangles of a turned flat face are coplanar only to
+#: about 1e-7 rad - more than the 1e-12 of engine/mesh.py flat_parts, which decides for spheres (whose edge
+#: contact equals the face contact there anyway)
+FLAT = 1e-9
+FLAT_OFFSET = 1e-6
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _parallel(tn, t, u):
+    return abs(tn[t, 0] * tn[u, 0] + tn[t, 1] * tn[u, 1] + tn[t, 2] * tn[u, 2]) >= 1.0 - FLAT
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _coplanar(tv, tn, t, u, tol):
+    """Triangles t and u lie in one plane (normals parallel to FLAT, u's corner within tol (m) of t's plane)."""
+    off = ((tv[u, 0, 0] - tv[t, 0, 0]) * tn[t, 0] + (tv[u, 0, 1] - tv[t, 0, 1]) * tn[t, 1]
+           + (tv[u, 0, 2] - tv[t, 0, 2]) * tn[t, 2])
+    return _parallel(tn, t, u) and abs(off) <= tol
+
+
+@njit(cache=True, error_model="numpy")
+def _flat_part(walls, t, region):
+    """Whether the edge or corner `region` of triangle t (engine/mesh.py closest_point) lies inside a flat part
+    of its mesh, to FLAT: an edge shared with exactly one other triangle, parallel to t; a corner whose fan of
+    triangles is closed (every neighbouring vertex is shared by two of them) and parallel to t."""
+    vid = walls.tri_vid
+    a = vid[t, region - 1] if region <= 3 else vid[t, region - 4]
+    first = walls.fan_start[a]
+    last = walls.fan_start[a + 1]
+    if region <= 3:
+        b = vid[t, region % 3]
+        others = 0
+        for k in range(first, last):
+            u = walls.fan_tri[k]
+            if u != t and (vid[u, 0] == b or vid[u, 1] == b or vid[u, 2] == b):
+                others += 1
+                if not _parallel(walls.tri_n, t, u):
+                    return False
+        return others == 1
+    for k in range(first, last):
+        u = walls.fan_tri[k]
+        if not _parallel(walls.tri_n, t, u):
+            return False
+        for c in range(3):
+            w = vid[u, c]
+            if w == a:
+                continue
+            sharing = 0
+            for h in range(first, last):
+                f = walls.fan_tri[h]
+                if vid[f, 0] == w or vid[f, 1] == w or vid[f, 2] == w:
+                    sharing += 1
+            if sharing != 2:
+                return False
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def _mesh_forces(sq, laws, walls, dt, char_vel, record):
+    """Contacts with the triangles of mesh walls (engine/walls/mesh_wall.py), every triangle within a body's
+    bounding sphere (docs/shapes.md, Superquadrics):
+
+    - face: m the triangle's unit normal on the body's side, s = p(-m) the body's deepest point along it, d its
+      depth below the triangle's plane; a contact of normal m and overlap d (as on a plane) when s projects
+      into the triangle or onto its border (within FLAT_OFFSET of the bounding radius);
+    - edge or corner, when it projects outside: q the triangle's point closest to that projection, the normal
+      n = (x - q) / |x - q| (from q to the centre), the overlap d = h(-n) - |x - q| (h the body's support
+      function: how far the body reaches past q along -n; r - |x - q| for a sphere). An edge or corner inside
+      a flat part of the mesh (`_flat_part`, to FLAT) does not count: the coplanar neighbour holds the
+      projection.
+
+    One contact per body and plane of triangles: a contact whose normal equals (to FLAT) one already taken this step
+    (a face on the shared edge of two coplanar triangles, an edge seen from both of its triangles) is the
+    same contact. History (shear displacement) per slot, keyed by the triangle and carried to a coplanar
+    triangle (a body sliding over a flat mesh keeps it). Contact point midway between the body's deepest
+    point and the surface; R* the body's curvature radius there, the mesh's mass infinite."""
+    x = sq.x
+    shape = sq.shape
+    tv = walls.tri_v
+    tn = walls.tri_n
+    ntri = tv.shape[0]
+    seen = np.zeros(MESH_SLOTS, dtype=np.bool_)
+    for i in range(len(sq.mass)):
+        seen[:] = False
+        r = sq.radius[i]
+        xi0 = x[i, 0]
+        xi1 = x[i, 1]
+        xi2 = x[i, 2]
+        for t in range(ntri):
+            if (min(tv[t, 0, 0], tv[t, 1, 0], tv[t, 2, 0]) >= xi0 + r
+                    or max(tv[t, 0, 0], tv[t, 1, 0], tv[t, 2, 0]) <= xi0 - r
+                    or min(tv[t, 0, 1], tv[t, 1, 1], tv[t, 2, 1]) >= xi1 + r
+                    or max(tv[t, 0, 1], tv[t, 1, 1], tv[t, 2, 1]) <= xi1 - r
+                    or min(tv[t, 0, 2], tv[t, 1, 2], tv[t, 2, 2]) >= xi2 + r
+                    or max(tv[t, 0, 2], tv[t, 1, 2], tv[t, 2, 2]) <= xi2 - r):
+                continue
+            qx, qy, qz, region = closest_point(xi0, xi1, xi2, tv, t)
+            gx = xi0 - qx
+            gy = xi1 - qy
+            gz = xi2 - qz
+            if gx * gx + gy * gy + gz * gz >= r * r:
+                continue
+            sep = (xi0 - tv[t, 0, 0]) * tn[t, 0] + (xi1 - tv[t, 0, 1]) * tn[t, 1] + (xi2 - tv[t, 0, 2]) * tn[t, 2]
+            sign = 1.0 if sep >= 0.0 else -1.0
+            mx = sign * tn[t, 0]
+            my = sign * tn[t, 1]
+            mz = sign * tn[t, 2]
+            sx, sy, sz, bx, by, bz = _support_world(x, sq.rot, shape, i, -mx, -my, -mz)
+            d = -((sx - tv[t, 0, 0]) * mx + (sy - tv[t, 0, 1]) * my + (sz - tv[t, 0, 2]) * mz)
+            if not d > 0.0:  # the body does not reach the triangle's plane
+                continue
+            ox = sx + d * mx
+            oy = sy + d * my
+            oz = sz + d * mz
+            qx, qy, qz, region = closest_point(ox, oy, oz, tv, t)
+            # on the triangle's border (to round-off) is in it: a body over a shared edge or corner of a flat
+            # part, whose projection each of its triangles puts on its border, takes the face contact (once)
+            face = region == 0 or (ox - qx) ** 2 + (oy - qy) ** 2 + (oz - qz) ** 2 <= (FLAT_OFFSET * r) ** 2
+            if face:
+                enx = mx
+                eny = my
+                enz = mz
+            else:
+                if _flat_part(walls, t, region):
+                    continue
+                gx = xi0 - qx
+                gy = xi1 - qy
+                gz = xi2 - qz
+                dist = np.sqrt(gx * gx + gy * gy + gz * gz)
+                if dist == 0.0:
+                    continue
+                enx = gx / dist
+                eny = gy / dist
+                enz = gz / dist
+                sx, sy, sz, bx, by, bz = _support_world(x, sq.rot, shape, i, -enx, -eny, -enz)
+                d = (xi0 - sx) * enx + (xi1 - sy) * eny + (xi2 - sz) * enz - dist
+                if not d > 0.0:
+                    continue
+            slot = -1
+            duplicate = False
+            for k in range(MESH_SLOTS):
+                u = sq.mesh_tri[i, k]
+                if u < 0 or u >= ntri:
+                    continue
+                same = u == t or (face and _coplanar(tv, tn, u, t, FLAT_OFFSET * r))
+                if seen[k] and (same or sq.mesh_hist[i, k, 3] * enx + sq.mesh_hist[i, k, 4] * eny
+                                + sq.mesh_hist[i, k, 5] * enz >= 1.0 - FLAT):
+                    duplicate = True
+                    break
+                if same and slot < 0:
+                    slot = k
+            if duplicate:
+                continue
+            if slot < 0:
+                for k in range(MESH_SLOTS):
+                    if not seen[k] and (sq.mesh_tri[i, k] < 0 or sq.mesh_tri[i, k] >= ntri):
+                        slot = k
+                        break
+                if slot < 0:
+                    sq.status[0] += 1
+                    continue
+                for h in range(6):
+                    sq.mesh_hist[i, slot, h] = 0.0
+            sq.mesh_tri[i, slot] = t
+            seen[slot] = True
+            sq.mesh_hist[i, slot, 3] = enx
+            sq.mesh_hist[i, slot, 4] = eny
+            sq.mesh_hist[i, slot, 5] = enz
+            cx = sx + 0.5 * d * enx
+            cy = sy + 0.5 * d * eny
+            cz = sz + 0.5 * d * enz
+            mk = walls.tri_mesh[t]
+            reff = curvature_radius(shape[i, 0], shape[i, 1], shape[i, 2], shape[i, 3], shape[i, 4], bx, by, bz,
+                                    sq.rcap[i])
+            vix, viy, viz = _point_velocity(sq, i, cx, cy, cz)
+            px = cx - (walls.mesh_point0[mk, 0] + walls.mesh_shift[mk, 0])
+            py = cy - (walls.mesh_point0[mk, 1] + walls.mesh_shift[mk, 1])
+            pz = cz - (walls.mesh_point0[mk, 2] + walls.mesh_shift[mk, 2])
+            om = walls.mesh_omega[mk]
+            wx, wy, wz = _cross(om * walls.mesh_axis[mk, 0], om * walls.mesh_axis[mk, 1], om * walls.mesh_axis[mk, 2],
+                                px, py, pz)
+            fx, fy, fz = contact_force(laws, sq.ptype[i], walls.mesh_type[mk], d, enx, eny, enz,
+                                       vix - walls.mesh_vel[mk, 0] - wx, viy - walls.mesh_vel[mk, 1] - wy,
+                                       viz - walls.mesh_vel[mk, 2] - wz, reff, sq.mass[i], dt, char_vel,
+                                       sq.mesh_hist[i], slot)
+            _push(sq, i, 1.0, fx, fy, fz, cx, cy, cz)
+            if record:
+                w = walls.mesh_wall0[0] + mk
+                tx, ty, tz = _cross(cx, cy, cz, fx, fy, fz)
+                walls.force[w, 0] -= fx
+                walls.force[w, 1] -= fy
+                walls.force[w, 2] -= fz
+                walls.torque[w, 0] -= tx
+                walls.torque[w, 1] -= ty
+                walls.torque[w, 2] -= tz
+        for k in range(MESH_SLOTS):  # contacts that opened: the slot is free, its history starts afresh
+            if not seen[k] and sq.mesh_tri[i, k] >= 0:
+                sq.mesh_tri[i, k] = -1
+                for h in range(6):
+                    sq.mesh_hist[i, k, h] = 0.0
+
+
 @njit(cache=True, error_model="numpy")
 def superquadric_pass(sq, laws, walls, gravity, dt, char_vel, collect, kick, drift, record):
     """The superquadrics' part of a step, in the order of the particle pass (engine/kernels.py INTEGRATE):
@@ -545,6 +828,7 @@ def superquadric_pass(sq, laws, walls, gravity, dt, char_vel, collect, kick, dri
                 sq.torque[k, a] = 0.0
         _pair_forces(sq, laws, dt, char_vel)
         _plane_forces(sq, laws, walls, dt, char_vel, record)
+        _mesh_forces(sq, laws, walls, dt, char_vel, record)
     for k in range(nb):
         inv_m = 1.0 / sq.mass[k]
         if kick:
@@ -625,6 +909,8 @@ def add(sim, shape: Shape, positions, quaternions, velocity, omega):
         partner=np.concatenate([sq.partner, np.full((k, SLOTS), -1, dtype=np.int64)]),
         hist=np.concatenate([sq.hist, np.zeros((k, SLOTS, SLOT_WIDTH))]),
         wall_hist=np.concatenate([sq.wall_hist, np.zeros((k,) + sq.wall_hist.shape[1:])]),
+        mesh_tri=np.concatenate([sq.mesh_tri, np.full((k, MESH_SLOTS), -1, dtype=np.int64)]),
+        mesh_hist=np.concatenate([sq.mesh_hist, np.zeros((k, MESH_SLOTS, 6))]),
         rot=np.zeros((first + k, 3, 3)))
     sim.dirty = True
 
@@ -661,9 +947,9 @@ def problem(sim) -> str | None:
     """Why this scene's superquadrics cannot run (walls or particles they cannot touch), or None."""
     if sim.superquadrics is None or not len(sim.superquadrics.mass):
         return None
-    others = sorted({w["shape"] for w in sim.walls} - {"plane"})
+    others = sorted({w["shape"] for w in sim.walls} - {"plane", "mesh"})
     if others:
-        return (f"superquadrics touch planes only, not {' or '.join(others)} walls "
+        return (f"superquadrics touch planes and meshes only, not {' or '.join(others)} walls "
                 f"(walls: {', '.join(w['name'] for w in sim.walls)})")
     if sim.n or sim.bodies is not None or any(mod.kind == "insert" for mod in sim.active_modifiers()):
         return "superquadrics do not touch spheres or clumps: a scene has one or the other (no insert modifier)"
@@ -762,20 +1048,29 @@ def restore(sim, data: dict):
     if "sq_mass" not in data:
         sim.superquadrics = None
         return
-    arrays = {name: np.ascontiguousarray(data[key]) for key, name in RESTART_ARRAYS.items()}
-    nb = len(arrays["mass"])
+    nb = len(data["sq_mass"])
+    # files written before superquadrics touched meshes hold no mesh contacts: none open
+    defaults = {"sq_mesh_tri": np.full((nb, MESH_SLOTS), -1, dtype=np.int64),
+                "sq_mesh_hist": np.zeros((nb, MESH_SLOTS, 6))}
+    missing = [key for key in RESTART_ARRAYS if key not in data and key not in defaults]
+    if missing:
+        raise ValueError(f"the superquadric arrays {', '.join(missing)} are missing")
+    arrays = {name: np.ascontiguousarray(data[key] if key in data else defaults[key])
+              for key, name in RESTART_ARRAYS.items()}
     shapes = dict(x=(nb, 3), v=(nb, 3), q=(nb, 4), angmom=(nb, 3), omega=(nb, 3), inertia=(nb, 3), mass=(nb,),
                   shape=(nb, 5), radius=(nb,), rcap=(nb,), ptype=(nb,), sid=(nb,), force=(nb, 3), torque=(nb, 3),
-                  partner=(nb, SLOTS), hist=(nb, SLOTS, SLOT_WIDTH))
+                  partner=(nb, SLOTS), hist=(nb, SLOTS, SLOT_WIDTH), mesh_tri=(nb, MESH_SLOTS),
+                  mesh_hist=(nb, MESH_SLOTS, 6))
     for name, shape in shapes.items():
         if arrays[name].shape != shape or not np.all(np.isfinite(arrays[name])):
             raise ValueError(f"array 'sq_{name}' has shape {arrays[name].shape}, expected {shape}, or "
                              "non-finite values")
     if (arrays["wall_hist"].ndim != 3 or arrays["wall_hist"].shape[0] != nb or np.any(arrays["mass"] <= 0)
             or np.any(arrays["inertia"] <= 0) or np.any(arrays["shape"][:, :3] <= 0)
-            or np.any(arrays["shape"][:, 3:] < 2) or np.any(arrays["partner"] >= nb) or np.any(arrays["ptype"] < 0)):
+            or np.any(arrays["shape"][:, 3:] < 2) or np.any(arrays["partner"] >= nb)
+            or np.any(arrays["mesh_tri"] < -1) or np.any(arrays["ptype"] < 0)):
         raise ValueError("the superquadric arrays are out of range")
-    for name in ("ptype", "sid", "partner"):
+    for name in ("ptype", "sid", "partner", "mesh_tri"):
         arrays[name] = arrays[name].astype(np.int64)
     sim.superquadrics = Superquadrics(rot=np.zeros((nb, 3, 3)), status=np.zeros(1, dtype=np.int64), **arrays)
 

@@ -337,7 +337,7 @@ def test_sphere_kernels_hold_no_superquadric_code():
 
 @pytest.mark.parametrize("extra, message", [
     ({"command": "create", "object": "wall", "name": "drum", "shape": "cylinder", "radius": 0.05,
-      "center": [0, 0], "type": 1}, "superquadrics touch planes only, not cylinder walls"),
+      "center": [0, 0], "type": 1}, "superquadrics touch planes and meshes only, not cylinder walls"),
     ({"command": "create", "object": "particle", "type": 1, "radius": 0.004, "position": [0.05, 0, 0]},
      "superquadrics do not touch spheres"),
 ])
@@ -385,3 +385,110 @@ def test_packing_settles_into_a_box_without_losing_a_body(engine_run):
     # the same seed packs the same bodies
     code, again = engine_run(_scene([pack], box, steps=0, every=1, columns=cols[:3]), sub="again")
     assert code == 0 and read_csv(again / "thermo.csv")["sq_x[1]"][0] == t["sq_x[1]"][0]
+
+
+# ---------------------------------------------------------------- mesh walls
+
+
+def _write_stl(path, triangles):
+    lines = ["solid test"]
+    for t in np.asarray(triangles, dtype=np.float64):
+        lines += [" facet normal 0 0 0", "  outer loop"] + [f"   vertex {float(v[0])!r} {float(v[1])!r} {float(v[2])!r}" for v in t] + \
+                 ["  endloop", " endfacet"]
+    path.write_text("\n".join(lines + ["endsolid test", ""]))
+    return str(path)
+
+
+def _grid(x0, x1, y0, y1, cell):
+    """A flat rectangle [x0, x1] x [y0, y1] at z = 0 as squares of side cell, each split into two triangles."""
+    xs = np.linspace(x0, x1, round((x1 - x0) / cell) + 1)
+    ys = np.linspace(y0, y1, round((y1 - y0) / cell) + 1)
+    out = []
+    for a in range(len(xs) - 1):
+        for b in range(len(ys) - 1):
+            p = [(xs[a], ys[b], 0.0), (xs[a + 1], ys[b], 0.0), (xs[a + 1], ys[b + 1], 0.0), (xs[a], ys[b + 1], 0.0)]
+            out += [[p[0], p[1], p[2]], [p[0], p[2], p[3]]]
+    return np.array(out)
+
+
+def _mesh_wall(file):
+    return {"command": "create", "object": "wall", "name": "floor", "shape": "mesh", "file": file, "type": 1}
+
+
+@pytest.mark.parametrize("blockiness", [2, 5])
+def test_body_on_a_mesh_floor_follows_the_plane(engine_run, tmp_path, blockiness):
+    """A tilted, spinning body thrown onto a floor of 800 triangles (5 mm squares, smaller than the body: its
+    contact crosses faces and their shared edges) moves as on the plane z = 0: face contacts have the
+    plane's normal and depth, the flat edges between the triangles add nothing, history carries over."""
+    floor = _write_stl(tmp_path / "floor.stl", _grid(-0.05, 0.05, -0.05, 0.05, 0.005))
+    body = sq((0.001, 0.002, 0.011), (0.01, 0.006, 0.004), blockiness, velocity=(0.4, 0.1, -0.5),
+              omega=(3, -8, 2), orientation={"axis": [1, 1, 0], "angle": 40})
+    names = ["x", "y", "z", "vx", "vy", "vz", "lx", "ly", "lz"]
+    cols = [f"sq_{n}[1]" for n in names] + ["wall_fx[floor]", "wall_fz[floor]"]  # and what the floor takes
+    code, folder = engine_run(_scene([body], [plane("floor", "z", 0.0)], steps=40000, columns=cols), sub="plane")
+    assert code == 0, (folder / "log.dem").read_text()
+    want = read_csv(folder / "thermo.csv")
+    code, folder = engine_run(_scene([body], [_mesh_wall(floor)], steps=40000, columns=cols), sub="mesh")
+    assert code == 0, (folder / "log.dem").read_text()
+    got = read_csv(folder / "thermo.csv")
+    assert abs(want["sq_x[1]"][-1] - want["sq_x[1]"][0]) > 0.003  # it slid across triangles
+    assert abs(want["sq_lx[1]"]).max() > 0  # and turned
+    assert abs(want["wall_fz[floor]"]).max() > 0  # printed while touching
+    for name in cols:
+        scale = abs(want[name]).max()
+        assert np.allclose(got[name], want[name], rtol=0, atol=1e-9 * scale), name
+
+
+@pytest.mark.parametrize("theta", [35.0])
+def test_ellipsoid_slides_down_an_inclined_mesh(engine_run, tmp_path, theta):
+    """The incline of test_ellipsoid_on_an_incline_... as a mesh of 10 mm triangles along the body's path,
+    turned by theta about y: the acceleration along it is g (sin theta - mu cos theta)."""
+    mu = 0.5
+    th = math.radians(theta)
+    turn = np.array([[math.cos(th), 0, -math.sin(th)], [0, 1, 0], [math.sin(th), 0, math.cos(th)]])
+    tris = _grid(-0.3, 0.05, -0.02, 0.02, 0.01) @ turn.T
+    incline = _write_stl(tmp_path / "incline.stl", tris)
+    normal = turn @ np.array([0, 0, 1.0])
+    assert normal[0] == pytest.approx(-math.sin(th))
+    centre = [(0.004 + 1e-5) * v for v in normal]
+    body = sq(centre, (0.01, 0.006, 0.004), 2, orientation={"axis": [0, 1, 0], "angle": -theta})
+    scene = _scene([body], [_mesh_wall(incline)], mu=mu, e=0.3, dt=1e-5, steps=50000, every=200,
+                   columns=["sq_x[1]", "sq_z[1]", "sq_vx[1]", "sq_vz[1]"])
+    code, folder = engine_run(scene, sub="incline")
+    assert code == 0, (folder / "log.dem").read_text()
+    t_series = read_csv(folder / "thermo.csv")
+    down = np.array([-math.cos(th), -math.sin(th)])
+    s = t_series["sq_x[1]"] * down[0] + t_series["sq_z[1]"] * down[1]
+    v = t_series["sq_vx[1]"] * down[0] + t_series["sq_vz[1]"] * down[1]
+    time = t_series["time"]
+    late = time >= 0.2
+    acceleration = np.polyfit(time[late], v[late], 1)[0]
+    analytic = 9.81 * (math.sin(th) - mu * math.cos(th))
+    assert acceleration == pytest.approx(analytic, rel=0.03)
+    assert s[-1] - s[0] > 0.03  # over several triangles
+
+
+# ---------------------------------------------------------------- pair search
+
+
+@pytest.mark.parametrize("count, spread", [(1, 0.01), (50, 0.01), (400, 0.05), (400, 1.0)])
+def test_cell_grid_finds_every_pair_of_overlapping_bounding_spheres(count, spread):
+    """The cell grid's candidates hold every pair j > i whose bounding spheres overlap (against all pairs), in
+    increasing j; one body far away (a grid that would be huge) makes the cells larger, not the search wrong."""
+    rng = np.random.default_rng(count)
+    x = rng.uniform(0, spread, size=(count, 3))
+    if count > 1:
+        x[-1] = (50.0, -30.0, 80.0)
+    radius = rng.uniform(0.001, 0.004, size=count)
+    cell_start, order, cell_of, nc = superquadrics._cell_grid(x, radius)
+    assert np.prod(nc) <= superquadrics.CELLS_PER_BODY * count + 27
+    near = np.empty(count, dtype=np.int64)
+    found = set()
+    for i in range(count):
+        k = superquadrics._neighbours(i, cell_start, order, cell_of, nc, near)
+        assert np.all(np.diff(near[:k]) > 0) and np.all(near[:k] > i)
+        found |= {(i, int(j)) for j in near[:k] if np.sum((x[i] - x[j]) ** 2) < (radius[i] + radius[j]) ** 2}
+    want = {(i, j) for i in range(count) for j in range(i + 1, count)
+            if np.sum((x[i] - x[j]) ** 2) < (radius[i] + radius[j]) ** 2}
+    assert found == want
+    assert count < 50 or spread > 0.05 or len(want) > 20  # the dense cases do have pairs
