@@ -298,6 +298,27 @@ def rotate(q, angmom, inertia, dt):
 
 
 @njit(cache=True, error_model="numpy")
+def advance_body(x, v, angmom, q, inertia, omega, force, torque, mass, dt, kick, drift):
+    """One rigid body's share of the velocity Verlet step (engine/kernels.py INTEGRATE), in place: with kick,
+    the second half kick of the step (v += dt/2 F/m in m/s, L += dt/2 T in kg m^2/s); with drift, the next
+    step's first half kick, the drift x += dt v (m) and the rotation of q (rotate). Then the angular velocity
+    w = R I^-1 R^T L (rad/s). The one home of the rule for clumps and superquadrics."""
+    half_dt = 0.5 * dt
+    inv_m = 1.0 / mass
+    if kick:
+        for a in range(3):
+            v[a] += half_dt * force[a] * inv_m
+            angmom[a] += half_dt * torque[a]
+    if drift:
+        for a in range(3):
+            v[a] += half_dt * force[a] * inv_m
+            angmom[a] += half_dt * torque[a]
+            x[a] += dt * v[a]
+        rotate(q, angmom, inertia, dt)
+    angular_velocity(q, angmom, inertia, omega)
+
+
+@njit(cache=True, error_model="numpy")
 def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq, lo, hi, periodic):
     """The bodies' part of a step (see the module docstring); the particle pass has done the free spheres.
 
@@ -323,7 +344,6 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq, lo, hi, 
     member_body = b.member_body
     member_offset = b.member_offset
     nb = b.mass.shape[0]
-    half_dt = 0.5 * dt
     box = hi - lo
     if collect:
         for k in range(nb):
@@ -365,20 +385,12 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq, lo, hi, 
     for k in range(nb):
         if b.members[k] == 0:
             continue
-        inv_m = 1.0 / b.mass[k]
-        if kick:
-            for a in range(3):
-                b.v[k, a] += half_dt * b.force[k, a] * inv_m
-                b.angmom[k, a] += half_dt * b.torque[k, a]
+        advance_body(b.x[k], b.v[k], b.angmom[k], b.q[k], b.inertia[k], b.omega[k], b.force[k], b.torque[k],
+                     b.mass[k], dt, kick, drift)
         if drift:
             for a in range(3):
-                b.v[k, a] += half_dt * b.force[k, a] * inv_m
-                b.angmom[k, a] += half_dt * b.torque[k, a]
-                b.x[k, a] += dt * b.v[k, a]
                 if periodic[a] and (b.x[k, a] < lo[a] or b.x[k, a] >= hi[a]):
                     b.x[k, a] -= box[a] * np.floor((b.x[k, a] - lo[a]) / box[a])
-            rotate(b.q[k], b.angmom[k], b.inertia[k], dt)
-        angular_velocity(b.q[k], b.angmom[k], b.inertia[k], b.omega[k])
         _rotation(b.q[k, 0], b.q[k, 1], b.q[k, 2], b.q[k, 3], rot[k])
     need = 0
     bad = n

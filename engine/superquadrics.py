@@ -400,6 +400,19 @@ def _point_velocity(sq, k, cx, cy, cz):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _react(walls, w, fx, fy, fz, cx, cy, cz):
+    """Wall w takes the opposite of the force F (N) a body feels at the point c (m), and its torque about the
+    origin, -c x F (N m), as the walls of the sphere kernels do (engine/kernels.py)."""
+    tx, ty, tz = _cross(cx, cy, cz, fx, fy, fz)
+    walls.force[w, 0] -= fx
+    walls.force[w, 1] -= fy
+    walls.force[w, 2] -= fz
+    walls.torque[w, 0] -= tx
+    walls.torque[w, 1] -= ty
+    walls.torque[w, 2] -= tz
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _push(sq, k, sign, fx, fy, fz, cx, cy, cz):
     """sign F on body k at the point c: force and torque (c - x) x F."""
     sq.force[k, 0] += sign * fx
@@ -598,14 +611,8 @@ def _plane_forces(sq, laws, walls, dt, char_vel, record):
                                        vix - walls.plane_vel[w, 0], viy - walls.plane_vel[w, 1],
                                        viz - walls.plane_vel[w, 2], reff, sq.mass[i], dt, char_vel, hist, w)
             _push(sq, i, 1.0, fx, fy, fz, cx, cy, cz)
-            if record:  # the wall takes the opposite force, its torque about the origin (engine/kernels.py)
-                tx, ty, tz = _cross(cx, cy, cz, fx, fy, fz)
-                walls.force[w, 0] -= fx
-                walls.force[w, 1] -= fy
-                walls.force[w, 2] -= fz
-                walls.torque[w, 0] -= tx
-                walls.torque[w, 1] -= ty
-                walls.torque[w, 2] -= tz
+            if record:
+                _react(walls, w, fx, fy, fz, cx, cy, cz)
 
 
 #: mesh triangles whose unit normals' dot product is at least 1 - FLAT (about 4.5e-5 rad apart) and whose corners
@@ -797,14 +804,7 @@ def _mesh_forces(sq, laws, walls, dt, char_vel, record):
                                        sq.mesh_hist[i], slot)
             _push(sq, i, 1.0, fx, fy, fz, cx, cy, cz)
             if record:
-                w = walls.mesh_wall0[0] + mk
-                tx, ty, tz = _cross(cx, cy, cz, fx, fy, fz)
-                walls.force[w, 0] -= fx
-                walls.force[w, 1] -= fy
-                walls.force[w, 2] -= fz
-                walls.torque[w, 0] -= tx
-                walls.torque[w, 1] -= ty
-                walls.torque[w, 2] -= tz
+                _react(walls, walls.mesh_wall0[0] + mk, fx, fy, fz, cx, cy, cz)
         for k in range(MESH_SLOTS):  # contacts that opened: the slot is free, its history starts afresh
             if not seen[k] and sq.mesh_tri[i, k] >= 0:
                 sq.mesh_tri[i, k] = -1
@@ -817,9 +817,8 @@ def superquadric_pass(sq, laws, walls, gravity, dt, char_vel, collect, kick, dri
     """The superquadrics' part of a step, in the order of the particle pass (engine/kernels.py INTEGRATE):
     with collect, the forces and torques at the current positions (gravity, pairs, planes); with kick, the
     second half kick (v += dt/2 F/m, L += dt/2 T); with drift, the next step's first half kick, the drift
-    x += dt v and the rotation of q (clumps.rotate: Richardson iteration). Angular velocity from L after it."""
+    x += dt v and the rotation of q (clumps.advance_body). Angular velocity from L after it."""
     nb = len(sq.mass)
-    half_dt = 0.5 * dt
     if collect:
         for k in range(nb):
             clumps._rotation(sq.q[k, 0], sq.q[k, 1], sq.q[k, 2], sq.q[k, 3], sq.rot[k])
@@ -830,18 +829,8 @@ def superquadric_pass(sq, laws, walls, gravity, dt, char_vel, collect, kick, dri
         _plane_forces(sq, laws, walls, dt, char_vel, record)
         _mesh_forces(sq, laws, walls, dt, char_vel, record)
     for k in range(nb):
-        inv_m = 1.0 / sq.mass[k]
-        if kick:
-            for a in range(3):
-                sq.v[k, a] += half_dt * sq.force[k, a] * inv_m
-                sq.angmom[k, a] += half_dt * sq.torque[k, a]
-        if drift:
-            for a in range(3):
-                sq.v[k, a] += half_dt * sq.force[k, a] * inv_m
-                sq.angmom[k, a] += half_dt * sq.torque[k, a]
-                sq.x[k, a] += dt * sq.v[k, a]
-            clumps.rotate(sq.q[k], sq.angmom[k], sq.inertia[k], dt)
-        clumps.angular_velocity(sq.q[k], sq.angmom[k], sq.inertia[k], sq.omega[k])
+        clumps.advance_body(sq.x[k], sq.v[k], sq.angmom[k], sq.q[k], sq.inertia[k], sq.omega[k], sq.force[k],
+                            sq.torque[k], sq.mass[k], dt, kick, drift)
 
 
 # ---------------------------------------------------------------- kernel hooks (engine/kernels.py STEP_LOOP)
