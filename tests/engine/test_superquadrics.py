@@ -167,6 +167,21 @@ def _incline(theta_deg, mu, steps):
                   columns=["sq_x[1]", "sq_z[1]", "sq_vx[1]", "sq_vz[1]"])
 
 
+def _downhill(folder, theta_deg, mu):
+    """The body's travel down the incline of the run in folder, from its thermo: time (s), distance s (m), the
+    rows after t = 0.2 s (once landed), the fitted acceleration along the slope over them (m/s^2) and the
+    analytic g (sin theta - mu cos theta)."""
+    t_series = read_csv(folder / "thermo.csv")
+    th = math.radians(theta_deg)
+    down = np.array([-math.cos(th), -math.sin(th)])  # downhill along the incline, in the x-z plane
+    s = t_series["sq_x[1]"] * down[0] + t_series["sq_z[1]"] * down[1]
+    v = t_series["sq_vx[1]"] * down[0] + t_series["sq_vz[1]"] * down[1]
+    time = t_series["time"]
+    late = time >= 0.2
+    acceleration = np.polyfit(time[late], v[late], 1)[0]
+    return time, s, late, acceleration, 9.81 * (math.sin(th) - mu * math.cos(th))
+
+
 @pytest.mark.parametrize("theta, slides", [(24.0, False), (29.0, True), (35.0, True)])
 def test_ellipsoid_on_an_incline_slides_exactly_when_tan_theta_exceeds_mu(engine_run, theta, slides):
     """Lying flat, it cannot roll away (its centre would rise); it rocks on its flat side, undamped since the
@@ -176,20 +191,12 @@ def test_ellipsoid_on_an_incline_slides_exactly_when_tan_theta_exceeds_mu(engine
     mu = 0.5  # tan(theta) = mu at 26.57 degrees
     code, folder = engine_run(_incline(theta, mu, 80000), sub=f"incline{theta}")
     assert code == 0, (folder / "log.dem").read_text()
-    t_series = read_csv(folder / "thermo.csv")
-    th = math.radians(theta)
-    down = np.array([-math.cos(th), -math.sin(th)])  # downhill along the incline, in the x-z plane
-    s = t_series["sq_x[1]"] * down[0] + t_series["sq_z[1]"] * down[1]
-    v = t_series["sq_vx[1]"] * down[0] + t_series["sq_vz[1]"] * down[1]
-    time = t_series["time"]
-    late = time >= 0.2
-    acceleration = np.polyfit(time[late], v[late], 1)[0]
-    analytic = 9.81 * (math.sin(th) - mu * math.cos(th))
+    time, s, late, acceleration, analytic = _downhill(folder, theta, mu)
     if slides:
         assert acceleration == pytest.approx(analytic, rel=0.03)
         assert s[-1] - s[late][0] > 0.9 * analytic * (time[-1] ** 2 - 0.2 ** 2) / 2
     else:
-        assert abs(acceleration) < 0.005 * 9.81 * math.sin(th)
+        assert abs(acceleration) < 0.005 * 9.81 * math.sin(math.radians(theta))
         assert np.abs(s[late] - s[late].mean()).max() < 2e-4  # rocks in place
 
 
@@ -456,14 +463,7 @@ def test_ellipsoid_slides_down_an_inclined_mesh(engine_run, tmp_path, theta):
                    columns=["sq_x[1]", "sq_z[1]", "sq_vx[1]", "sq_vz[1]"])
     code, folder = engine_run(scene, sub="incline")
     assert code == 0, (folder / "log.dem").read_text()
-    t_series = read_csv(folder / "thermo.csv")
-    down = np.array([-math.cos(th), -math.sin(th)])
-    s = t_series["sq_x[1]"] * down[0] + t_series["sq_z[1]"] * down[1]
-    v = t_series["sq_vx[1]"] * down[0] + t_series["sq_vz[1]"] * down[1]
-    time = t_series["time"]
-    late = time >= 0.2
-    acceleration = np.polyfit(time[late], v[late], 1)[0]
-    analytic = 9.81 * (math.sin(th) - mu * math.cos(th))
+    time, s, late, acceleration, analytic = _downhill(folder, theta, mu)
     assert acceleration == pytest.approx(analytic, rel=0.03)
     assert s[-1] - s[0] > 0.03  # over several triangles
 
