@@ -231,12 +231,14 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
         ck = np.empty(${chunk}, dtype=np.int64)
         cj = np.empty(${chunk}, dtype=np.int64)
         ci = np.empty(${chunk}, dtype=np.int64)
+        ${far_alloc}
         gi = b
         row_end = nbr_start[b + 1]
         cur = b
         ${zero_sums}
         for c0 in range(nbr_start[b], nbr_start[e], ${chunk}):
             m = 0
+            ${far_start}
             i = gi  # the sweep (2) before left other values in ri, mi, ...
             ${gather_head}
             ${body_i}
@@ -259,10 +261,6 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
                 radsum = ri + rj
                 ${row}
                 ${same_body}
-                if rsq >= radsum * radsum:
-                    ${reset_history}
-                    ${zero_row}
-                    continue
                 ck[m] = k
                 cj[m] = j
                 ci[m] = gi
@@ -270,7 +268,10 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
                 cin[1, m] = dy
                 cin[2, m] = dz
                 cin[3, m] = rsq
-                m += 1
+                apart = rsq >= radsum * radsum
+                ${apart}
+                m += not apart
+            ${far}
             for cq in range(m):
                 i = ci[cq]
                 j = cj[cq]
@@ -306,6 +307,14 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
             ${zero_sums}
             cur += 1
 '''
+#: the listed pairs of a sweep found apart (cfar[:mf]): contact history reset, reaction row zeroed
+FAR = """\
+for cq in range(mf):
+    k = cfar[cq]
+    ${row}
+    ${reset_history}
+    ${zero_row}
+"""
 #: particles per block of the pair loop (a thread's unit of work; the results do not depend on it)
 PAIR_BLOCK = 512
 #: list entries per sweep of a block: the length of the columns (about 40 doubles per entry: 330 kB, in L2). Not a
@@ -702,12 +711,19 @@ def _pair_forces(c: Combination) -> str:
     contact, sums, nout = split_contact(contact_code(c, "pair"), nparam, width)
     sums = "".join(f"pair_hist[k, {h}] = cin[{first_hist + h}, cq]\n" for h in range(width)) + sums
     head = PARTICLE_HEAD[:PARTICLE_HEAD.index("fix = 0.0")]
+    # the pairs found apart: their history reset and (several threads) their reaction rows zeroed, after the
+    # contact-finding sweep; none of that without history on one thread
+    reset = _reset_history(c, "pair")
+    row = "q = rslot[k]" if rows else ""
+    far = dict(far_alloc=None, far_start=None, apart=None, far=None)
+    if reset or zero_row:
+        far = dict(far_alloc=f"cfar = np.empty({CONTACT_CHUNK}, dtype=np.int64)", far_start="mf = 0",
+                   apart="cfar[mf] = k\nmf += apart", far=render(FAR, row=row, reset_history=reset, zero_row=zero_row))
     return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), gather_head=head, block=str(PAIR_BLOCK), chunk=str(CONTACT_CHUNK),
                   zero_sums=PARTICLE_HEAD[PARTICLE_HEAD.index("fix = 0.0"):],
                   nin=str(len(inputs)), nout=str(max(nout, 1)), gather=gather, load=load, store=store, sums=sums,
-                  periodic_image=periodic, row="q = rslot[k]" if rows else "",
-                  reset_history=_reset_history(c, "pair"), zero_row=zero_row, contact=contact, own_sum=OWN_SUM[rows],
-                  bodies=", bodies" if c.clumps else "", **body_slots)
+                  periodic_image=periodic, row=row, contact=contact, own_sum=OWN_SUM[rows],
+                  bodies=", bodies" if c.clumps else "", **far, **body_slots)
 
 
 def _particle_pass(c: Combination, parts: list) -> str:
