@@ -32,8 +32,8 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from engine_identical import export_engine  # noqa: E402
-from engine_particle_pass import scripts  # noqa: E402
+from engine_identical import export_engine
+from engine_particle_pass import scripts
 
 #: runs in the exported engine's own process: reads the bed, times its kernels, prints one JSON line
 PROBE = r'''
@@ -82,7 +82,7 @@ print(json.dumps(dict(pair=pair, neigh=neigh, digest=digest, pairs=len(nbr.j) / 
 def probe(engine: Path, folder: Path, calls: int, threads: int) -> dict:
     env = {**os.environ, "PYTHONPATH": str(engine), "NUMBA_NUM_THREADS": str(threads)}
     proc = subprocess.run([sys.executable, "-c", PROBE, str(calls), str(threads)], cwd=folder, env=env,
-                          capture_output=True, text=True)
+                          capture_output=True, text=True, check=False)
     if proc.returncode:
         raise SystemExit(f"probe failed in {folder}: {proc.stderr.strip()[-800:]}")
     return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -112,7 +112,7 @@ def main(argv=None) -> int:
             next(c for c in make if c["command"] == "run")["steps"] = args.settle
             (root / "make.json").write_text(json.dumps(make))
             command = [sys.executable, "-m", "engine", "-in", "make.json", "-log", "make.log", "-threads", "1"]
-            for name, value in dict(N=args.n, SEED=1, HALF_WIDTH=half_width, HEIGHT=0.2).items():
+            for name, value in {"N": args.n, "SEED": 1, "HALF_WIDTH": half_width, "HEIGHT": 0.2}.items():
                 command += ["-var", name, str(value)]
             env = {**os.environ, "PYTHONPATH": str(engines["new"]), "NUMBA_NUM_THREADS": "1"}
             subprocess.run(command, cwd=root, env=env, check=True, capture_output=True)
