@@ -1,31 +1,43 @@
 """A roofline-style limit of the settling scene on this machine, and how far each phase of the engine is from it.
 
-Measured here, on one core, with small compiled loops (Numba, as the engine):
+Measured here, on one core, with small compiled loops (Numba, as the engine), in CPU seconds of the process (so
+that the waiting of a loaded machine does not count):
 - memory bandwidth: the STREAM triad a = b + s c over arrays far larger than the caches (GB/s, counting the
   write-allocate read of a: 32 B per element);
 - throughput of the scalar operations the contact code is made of: multiply-add pairs, divisions and square
   roots (8 independent chains each, so that latency does not count);
 - and of divisions and square roots in a loop LLVM vectorizes (arrays in L1), as the pair pass's contact sweep
-  is compiled (engine/kernels.py PAIR_FORCES): the compute limit of a contact uses this rate.
+  is compiled (engine/kernels.py PAIR_FORCES): the compute limit of a contact uses this rate;
+- the rate of indexed loads and stores from the caches: a loop that copies 8 doubles of a row picked by an index
+  array into 8 columns (9 loads and 8 stores per row, what the pair pass's sweeps do per pair). At 10,000
+  particles every array of the scene fits in the caches (about 3 MB), so this rate, not the memory bandwidth,
+  bounds the sweeps that move data: the memory limit of the pair and neighbor phases uses it.
 
 The contact counts come from the engine itself: a settling run of N spheres (engine/examples/settling.json, one
-thread) gives its contacts (thermo `contacts`) and listed pairs (the neighbor list of a restart file written at
-the end) per particle, and its timing.json phases (pair, neigh, modify per particle-step). The work per pair and per
-particle, counted in the generated kernels (engine/kernels.py, Hertz + tangential history, five planes):
+thread) gives its contacts (thermo `contacts`), listed pairs (the neighbor list of a restart file written at the
+end) per particle and neighbor rebuilds (log.dem), and its timing.json phases (pair, neigh, modify; wall clock,
+scaled by the loop's CPU / wall ratio, timing.json `cpu` / `total`, so that the load of a shared machine is
+taken out as far as it can be). The work, counted in the generated kernels (engine/kernels.py PAIR_FORCES,
+Hertz + tangential history, six planes) and engine/neighbor.py:
 
-- a listed pair not in contact: 10 flops; loads x[j], radius[j] and the index (36 B, from the caches: the
-  partner was sorted next to i) and, for history, a store of 3 zeros (24 B);
-- a contact: ~130 flops, 5 square roots, 6 divisions; 176 B of the partner and its history (caches);
-- per particle and step (integration, gravity, plane bits, pair-loop head and sums): ~60 flops, and every
-  particle array streamed once or twice: x, v, omega read and written, f, torque read and written, radius,
-  mass, inverses, type, x_build read, neighbor rows (start, j, history): ~400 B from memory once the
-  particles no longer fit in the caches.
+- a listed pair (the contact-finding sweep, every pair): 10 flops; 5 loads (j, x[j], radius[j]) and 8 stores
+  (the pair's indices, distance vector and square, and its slot among the pairs apart);
+- a contact (gather, force, sums sweeps): ~130 flops, 5 square roots and 6 divisions (vectorized); ~80 loads and
+  ~55 stores (24 columns gathered, read back and 15 written by the force sweep, 12 sums added in list order,
+  the history written back);
+- per particle and step (integration, gravity, plane bits): ~60 flops, and every particle array streamed once or
+  twice: ~400 B, from memory once the particles no longer fit in the caches;
+- a neighbor rebuild, per particle: ~32 candidates tested (half of the 27 cells of 2 r + skin around it, at the
+  bed's packing: 10 flops, 5 loads, 1 store each), the rows sorted and the history carried (~3 loads, 2 stores
+  per listed pair and history double), the particle arrays re-ordered (~200 B read and written); amortised over
+  the steps between rebuilds.
 
 The limit of a phase is the larger of its compute time (flops at the measured multiply-add rate plus
-divisions and roots at theirs) and its memory time (bytes at the measured bandwidth).
+divisions and roots at theirs) and its memory time (bytes at the measured bandwidth, or cache loads and stores
+at the measured indexed rate).
 
-    python benchmarks/engine_roofline.py                      # N = 10000, 3000 steps
-    python benchmarks/engine_roofline.py --particles 10000 --steps 30000
+    python benchmarks/engine_roofline.py                      # N = 10000, 30000 steps (the whole settling)
+    python benchmarks/engine_roofline.py --particles 10000 --steps 3000
 """
 from __future__ import annotations
 
@@ -44,10 +56,12 @@ from numba import njit
 
 REPO = Path(__file__).resolve().parents[1]
 
-#: per listed pair (distance test), per contact, per particle-step: (flops, divisions + square roots, bytes)
-PAIR_TEST = (10, 0, 60)
-CONTACT = (130, 11, 176)
-PARTICLE = (60, 0, 400)
+#: per listed pair (distance test), per contact, per particle-step, per particle and rebuild: (flops, divisions +
+#: square roots, bytes from memory, cache loads + stores)
+PAIR_TEST = (10, 0, 0, 13)
+CONTACT = (130, 11, 0, 135)
+PARTICLE = (60, 0, 400, 0)
+REBUILD = (32 * 10 + 60, 0, 400, 32 * 6 + 5.4 * 20)
 
 
 @njit(cache=True)
@@ -93,12 +107,22 @@ def _div_sqrt_vector(a, out, rounds):
             out[i] = math.sqrt(a[i]) + 1.5 / a[i]
 
 
+@njit(cache=True)
+def _indexed_copy(index, rows, columns, rounds):
+    for _ in range(rounds):
+        for q in range(index.shape[0]):
+            i = index[q]
+            for c in range(8):
+                columns[c, q] = rows[i, c]
+
+
 def best_of(fn, repeat=5) -> float:
+    """The shortest of `repeat` calls of fn, in CPU seconds of this process."""
     times = []
     for _ in range(repeat):
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         fn()
-        times.append(time.perf_counter() - t0)
+        times.append(time.process_time() - t0)
     return min(times)
 
 
@@ -115,7 +139,12 @@ def machine() -> dict:
     a, out, rounds = np.linspace(1.0, 2.0, 2048), np.zeros(2048), 5000
     _div_sqrt_vector(a, out, 1)
     vector = 2 * a.shape[0] * rounds / best_of(lambda: _div_sqrt_vector(a, out, rounds))
-    return {"bandwidth": bandwidth, "flops": flops, "div_sqrt": roots, "div_sqrt_vector": vector}
+    # rows picked at random among 10,000 (the scene's particles, in the caches), 1032 at a time (a pair sweep)
+    index = np.random.default_rng(1).integers(0, 10000, 1032)
+    rows, columns, rounds = np.ones((10000, 8)), np.zeros((8, 1032)), 2000
+    _indexed_copy(index, rows, columns, 1)
+    memops = 17 * index.shape[0] * rounds / best_of(lambda: _indexed_copy(index, rows, columns, rounds))
+    return {"bandwidth": bandwidth, "flops": flops, "div_sqrt": roots, "div_sqrt_vector": vector, "memops": memops}
 
 
 def engine_counts(n: int, steps: int) -> dict:
@@ -140,50 +169,56 @@ def engine_counts(n: int, steps: int) -> dict:
         timing = json.loads((Path(tmp) / "timing.json").read_text())
         with np.load(Path(tmp) / "end.restart", allow_pickle=False) as restart:
             listed = len(restart["nbr_j"])
+        loop = next(line for line in (Path(tmp) / "log.dem").read_text().splitlines()[::-1] if "rebuilds)" in line)
+        rebuilds = int(loop.split(" rebuilds)")[0].rsplit("(", 1)[1])
     particles = int(last["atoms"])
     return {"particles": particles, "contacts": int(last["contacts"]) / particles, "pairs": listed / particles,
-            "timing": timing}
+            "timing": timing, "rebuilds": rebuilds}
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--particles", type=int, default=10000)
-    parser.add_argument("--steps", type=int, default=3000)
+    parser.add_argument("--steps", type=int, default=30000)
     args = parser.parse_args()
     m = machine()
     print(f"this machine, one core: STREAM triad {m['bandwidth'] / 1e9:.1f} GB/s, multiply-add "
           f"{m['flops'] / 1e9:.2f} Gflop/s, divisions/square roots {m['div_sqrt'] / 1e9:.3f} G/s scalar, "
-          f"{m['div_sqrt_vector'] / 1e9:.3f} G/s vectorized")
+          f"{m['div_sqrt_vector'] / 1e9:.3f} G/s vectorized, indexed loads + stores from the caches "
+          f"{m['memops'] / 1e9:.2f} G/s")
     counts = engine_counts(args.particles, args.steps)
     contacts = counts["contacts"]
     pairs = counts["pairs"]
     timing = counts["timing"]
     ps = timing["particle_steps"]
+    cpu_share = timing["cpu"] / timing["total"]  # the loop's CPU / wall: the phases' wall times scaled by it
+    steps_per_rebuild = timing["steps"] / max(counts["rebuilds"], 1)
 
     def limit(work, times, roots_rate=m["div_sqrt"]):
-        flops, roots, nbytes = work
+        flops, roots, nbytes, memops = work
         compute = (flops / m["flops"] + roots / roots_rate) * times
-        memory = nbytes * times / m["bandwidth"]
+        memory = (nbytes / m["bandwidth"] + memops / m["memops"]) * times
         return compute, memory
 
     c_pair, m_pair = limit(PAIR_TEST, pairs)
     c_contact, m_contact = limit(CONTACT, contacts, m["div_sqrt_vector"])  # the vectorized contact sweep
-    c_part, m_part = limit(PARTICLE, 1.0)
     print(f"settling scene, {counts['particles']} spheres, {args.steps} steps: {contacts:.2f} contacts and "
-          f"{pairs:.2f} listed pairs per particle (half list) at the end")
-    print(f"{'phase':<10} {'measured ns/p-step':>18} {'compute limit':>13} {'memory limit':>12} {'measured/limit':>14}")
-    phases = {"pair": (c_pair + c_contact, (m_pair + m_contact)),
-              "modify": (c_part, m_part)}
+          f"{pairs:.2f} listed pairs per particle (half list) at the end, {counts['rebuilds']} rebuilds (one per "
+          f"{steps_per_rebuild:.0f} steps); loop CPU / wall {cpu_share:.2f}")
+    print(f"{'phase':<10} {'CPU ns/p-step':>13} {'compute limit':>13} {'memory limit':>12} {'measured/limit':>14}")
+    phases = {"pair": (c_pair + c_contact, m_pair + m_contact),
+              "modify": limit(PARTICLE, 1.0),
+              "neigh": limit(REBUILD, 1.0 / steps_per_rebuild)}
     for name, (compute, memory) in phases.items():
-        measured = timing[name] / ps * 1e9
+        measured = timing[name] * cpu_share / ps * 1e9
         bound = max(compute, memory) * 1e9
-        print(f"{name:<10} {measured:>18.1f} {compute * 1e9:>13.1f} {memory * 1e9:>12.1f} {measured / bound:>14.2f}")
-    print(f"{'neigh':<10} {timing['neigh'] / ps * 1e9:>18.1f} (rebuilds: a cell sort and search per particle, "
-          "amortised over the steps between rebuilds)")
-    total = timing["pair"] + timing["neigh"] + timing["modify"]
+        print(f"{name:<10} {measured:>13.1f} {compute * 1e9:>13.1f} {memory * 1e9:>12.1f} {measured / bound:>14.2f}")
+    print(f"{'(pairs)':<10} {'':>13} {c_pair * 1e9:>13.1f} {m_pair * 1e9:>12.1f}   the contact-finding sweep")
+    print(f"{'(contacts)':<10} {'':>13} {c_contact * 1e9:>13.1f} {m_contact * 1e9:>12.1f}   gather, force, sums")
+    total = (timing["pair"] + timing["neigh"] + timing["modify"]) * cpu_share
     bound = sum(max(c, mm) for c, mm in phases.values()) * ps
-    print(f"{'total':<10} {total / ps * 1e9:>18.1f} ns per particle-step; limit of pair + modify "
-          f"{bound / ps * 1e9:.1f} ns (measured/limit {total / bound:.2f})")
+    print(f"{'total':<10} {total / ps * 1e9:>13.1f} ns per particle-step; limit {bound / ps * 1e9:.1f} ns "
+          f"(measured/limit {total / bound:.2f})")
 
 
 if __name__ == "__main__":
