@@ -156,3 +156,23 @@ def test_neighbor_list_matches_brute_force_after_reordering_and_loss(periodic):
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     for a, b in zip(*results):
         assert np.array_equal(a, b)  # the same bytes on 1 and 2 threads
+
+
+@pytest.mark.parametrize("height", [0.03, 0.05, 0.07, 0.2])
+def test_neighbor_list_matches_brute_force_with_few_periodic_cells_along_the_last_axis(height):
+    """The search walks the neighbor cells along the last axis as runs of consecutive cells (engine/neighbor.py
+    `_z_runs`): one cell, two, three (a wrap on either side splits the run) and many, against brute force."""
+    from engine.neighbor import _grid, empty_list, lost_record, rebuild
+
+    lo, hi = np.array([-0.1, -0.1, 0.0]), np.array([0.1, 0.1, height])
+    periodic = np.array([False, True, True])
+    skin = 0.003
+    n = 400
+    s = random_state(np.random.default_rng(11), n, lo, hi)
+    cells = _grid(s.x, s.radius, np.arange(n), lo, hi - lo, periodic, skin)[2][2]
+    assert cells == {0.03: 1, 0.05: 2, 0.07: 3}.get(height, cells)
+    kept, nbr = rebuild(s, n, empty_list(3), lo, hi, periodic, skin, 1, lost_record(n), -np.ones(3))
+    assert kept == n
+    pairs = listed_pairs(s, nbr, n)
+    assert pairs == brute_force_pairs(s.x, s.radius, s.pid, lo, hi, periodic, skin)
+    assert len(pairs) > n // 2  # dense enough that a cell left out would lose pairs
