@@ -143,3 +143,48 @@ def test_a_new_kind_of_submodel_is_one_row_plus_its_law(tmp_path):
     out = subprocess.run([sys.executable, "-c", script], cwd=REPO, env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin"},
                          capture_output=True, text=True)
     assert out.stdout.strip() == "ok", out.stderr
+
+
+def test_the_pair_pass_resets_exactly_the_pairs_apart():
+    """The contact-finding sweep keeps the pairs in contact and the pairs apart without a branch (kernels.PAIR_FORCES):
+    every pair apart - and only those - gets its history reset and, on several threads, its reaction row zeroed."""
+    from engine import state as particle_state
+    from engine.neighbor import empty_list, lost_record, rebuild
+
+    rng = np.random.default_rng(3)
+    n = 2000  # several blocks of the pair pass and several column lengths of list entries
+    lo, hi = np.zeros(3), np.array([0.1, 0.1, 0.1])
+    x = lo + rng.random((n, 3)) * (hi - lo)
+    radius = np.full(n, 0.003)
+    mass = 2500.0 * 4.0 / 3.0 * np.pi * radius ** 3
+    materials = {1: (1e7, 0.3, 2500.0)}
+    inter = {(1, 1): dict(restitution=0.5, friction=0.3, rolling_friction=0.0, cohesion_energy_density=0.0)}
+    for parallel in (False, True):
+        c = Combination(normal="hertz", tangential="history", parallel=parallel)
+        module = kernels.build_kernel(c)
+        s = particle_state.append(particle_state.empty(0, 3), x=x.copy(), radius=radius, mass=mass,
+                                  inv_mass=1.0 / mass, inv_inertia=1.0 / (0.4 * mass * radius ** 2),
+                                  pid=np.arange(1, n + 1), v=0.01 * rng.standard_normal((n, 3)),
+                                  x_build=x.copy(), omega=np.ones((n, 3)))
+        nbr = empty_list(3, c.reaction_width)
+        kept, nbr = rebuild(s, n, nbr, lo, hi, np.zeros(3, dtype=np.bool_), 0.002, 1, lost_record(n), -np.ones(3))
+        assert kept == n
+        nbr.hist[:] = 1e-6
+        nbr.reaction[:] = 7.0
+        pp = parameter_table(c, materials, inter, 1)
+        module.pair_forces(s, n, nbr, pp, 1e-5, 1.0, hi - lo)
+        owner = np.repeat(np.arange(n), np.diff(nbr.start))
+        d = np.linalg.norm(s.x[owner] - s.x[nbr.j], axis=1)
+        apart = d >= radius[owner] + radius[nbr.j]
+        assert 0 < apart.sum() < len(apart) and (~apart).sum() > 1032  # both kinds, more contacts than a column
+        assert np.all(nbr.hist[apart] == 0.0) and np.all(nbr.hist[~apart] != 1e-6)
+        if parallel:
+            rows = nbr.reaction[nbr.rslot]  # pair k's row is rslot[k]
+            assert np.all(rows[apart] == 0.0) and np.all(rows[~apart] != 7.0)
+        # a force on each particle in contact, none on the others (on several threads the partners' shares wait
+        # in the rows: a force on the first particle of each contact only)
+        touching = np.zeros(n, dtype=bool)
+        touching[owner[~apart]] = True
+        if not parallel:
+            touching[nbr.j[~apart]] = True
+        assert np.all(np.any(s.f[touching] != 0.0, axis=1)) and np.all(s.f[~touching] == 0.0)
