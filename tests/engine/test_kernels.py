@@ -158,7 +158,7 @@ def test_the_pair_pass_resets_exactly_the_pairs_apart():
     radius = np.full(n, 0.003)
     mass = 2500.0 * 4.0 / 3.0 * np.pi * radius ** 3
     materials = {1: (1e7, 0.3, 2500.0)}
-    inter = {(1, 1): dict(restitution=0.5, friction=0.3, rolling_friction=0.0, cohesion_energy_density=0.0)}
+    inter = {(1, 1): {"restitution": 0.5, "friction": 0.3, "rolling_friction": 0.0, "cohesion_energy_density": 0.0}}
     for parallel in (False, True):
         c = Combination(normal="hertz", tangential="history", parallel=parallel)
         module = kernels.build_kernel(c)
