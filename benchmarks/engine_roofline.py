@@ -9,9 +9,11 @@ that the waiting of a loaded machine does not count):
 - and of divisions and square roots in a loop LLVM vectorizes (arrays in L1), as the pair pass's contact sweep
   is compiled (engine/kernels.py PAIR_FORCES): the compute limit of a contact uses this rate;
 - the rate of indexed loads and stores from the caches: a loop that copies 8 doubles of a row picked by an index
-  array into 8 columns (9 loads and 8 stores per row, what the pair pass's sweeps do per pair). At 10,000
-  particles every array of the scene fits in the caches (about 3 MB), so this rate, not the memory bandwidth,
-  bounds the sweeps that move data: the memory limit of the pair and neighbor phases uses it.
+  array into 8 columns (9 loads and 8 stores per row, what the pair pass's sweeps do per pair; about one store
+  per cycle here, whatever the order of the index or the form of the loop). At 10,000 particles every array of
+  the scene fits in the caches (about 3 MB), so this rate, not the memory bandwidth, bounds the sweeps that move
+  data: the memory limit of the pair and neighbor phases uses it. A phase near 1.0 of it is bound by the loads
+  and stores of its design (for the pair pass: the columns of its three sweeps), not by arithmetic.
 
 The contact counts come from the engine itself: a settling run of N spheres (engine/examples/settling.json, one
 thread) gives its contacts (thermo `contacts`), listed pairs (the neighbor list of a restart file written at the
@@ -169,8 +171,8 @@ def engine_counts(n: int, steps: int) -> dict:
         timing = json.loads((Path(tmp) / "timing.json").read_text())
         with np.load(Path(tmp) / "end.restart", allow_pickle=False) as restart:
             listed = len(restart["nbr_j"])
-        loop = next(line for line in (Path(tmp) / "log.dem").read_text().splitlines()[::-1] if "rebuilds)" in line)
-        rebuilds = int(loop.split(" rebuilds)")[0].rsplit("(", 1)[1])
+        rebuilds = sum(int(line.split(" rebuilds)")[0].rsplit("(", 1)[1])  # every run's Loop time line
+                       for line in (Path(tmp) / "log.dem").read_text().splitlines() if " rebuilds)" in line)
     particles = int(last["atoms"])
     return {"particles": particles, "contacts": int(last["contacts"]) / particles, "pairs": listed / particles,
             "timing": timing, "rebuilds": rebuilds}
