@@ -17,6 +17,12 @@ the functions that call it, and only those. `content_key` is also the dependency
 generated step kernels (`engine.kernels.build_kernel`).
 
 The key is computed at a function's first call (every module is imported by then), not at decoration.
+
+Runs started together (``harness run -j N``) often need the same new function: a compilation holds a file lock
+named by the function's key (``<cache_dir>/jit/<key>.lock``, the `filelock` package), so a second process waits
+for the first and loads its machine code instead of compiling it too. Locks are taken caller before callee,
+along the call graph, so two processes never wait for each other; the operating system drops a dead process'
+lock.
 """
 from __future__ import annotations
 
@@ -31,6 +37,8 @@ from pathlib import Path
 
 import numba
 import numpy as np
+from filelock import FileLock, Timeout
+from numba.core import sigutils
 from numba.core import types as nbtypes
 from numba.core.caching import CompileResultCacheImpl, FunctionCache, _Cache, _CacheLocator
 from numba.core.dispatcher import Dispatcher
@@ -255,14 +263,52 @@ class _LazyContentCache(_Cache):
         self._real().flush()
 
 
+#: seconds a compilation waits for another process compiling the same function before it compiles on its own (a
+#: process stopped in a debugger, say, must not hold every other run forever)
+LOCK_WAIT = 600.0
+#: one lock object per key and process: they are re-entrant (a recursive function compiles inside its own
+#: compilation), two objects on one file are not
+_locks: dict = {}
+
+
+def _compile_locked(dispatcher):
+    """dispatcher.compile under the file lock of its content key (module docstring): a signature it has
+    already compiled or loaded in this process takes no lock."""
+    compile_unlocked = dispatcher.compile
+
+    def compile(sig):
+        args, _ = sigutils.normalize_signature(sig)
+        if tuple(args) in dispatcher.overloads:
+            return compile_unlocked(sig)
+        key = content_key(dispatcher)
+        lock = _locks.get(key)
+        if lock is None:
+            folder = cache_dir() / "jit"
+            folder.mkdir(parents=True, exist_ok=True)
+            lock = _locks[key] = FileLock(str(folder / f"{key}.lock"), timeout=LOCK_WAIT)
+        try:
+            lock.acquire()
+        except Timeout:
+            return compile_unlocked(sig)
+        try:
+            # compiles, or loads what the process that held the lock saved
+            return compile_unlocked(sig)
+        finally:
+            lock.release()
+
+    dispatcher.compile = compile
+
+
 def njit(*args, **options):
-    """numba.njit; ``cache=True`` caches by content in <cache_dir>/jit (module docstring)."""
+    """numba.njit; ``cache=True`` caches by content in <cache_dir>/jit, compiling under a lock per key (module
+    docstring)."""
     cache = options.pop("cache", False)
 
     def decorate(fn):
         dispatcher = numba.njit(**options)(fn)
         if cache:
             dispatcher._cache = _LazyContentCache(dispatcher)
+            _compile_locked(dispatcher)
         return dispatcher
 
     if args and callable(args[0]):
