@@ -14,12 +14,19 @@ engine run.
     python benchmarks/main_job.py                     # HEAD, -j 2
     python benchmarks/main_job.py --rev main -j 2
     python benchmarks/main_job.py --analyze /tmp/home # the breakdown of a workspace that ran the job
+    python benchmarks/main_job.py --install           # what a fresh machine downloads (apt-get -s, no download)
+    python benchmarks/main_job.py --install --pip     # and pip's time in a new virtual environment
+
+--install estimates the Debian part of a fresh machine's installation without installing anything: apt-get
+simulates the installation of setup.sh's packages on a minimal Debian (the packages of priority required and
+important and what they depend on, taken from this machine's dpkg status), and the packages' sizes are summed.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -92,6 +99,78 @@ def breakdown(runs: list[dict], jobs: int) -> None:
               f"median compile {statistics.median((r.get('timing') or {}).get('compile', 0.0) for r in runs if r.get('adapter') == 'dem'):.2f} s")
 
 
+#: the Debian packages of scripts/setup.sh: the main job's, then the rest of everything
+MAIN_PACKAGES = ["liggghts", "liggghts-doc", "lammps", "yade", "openmpi-bin"]
+ALL_PACKAGES = MAIN_PACKAGES + ["lammps-examples", "chromium", "make", "gcc", "postgresql", "cmake", "g++", "ccache",
+                                "libopenmpi-dev", "libvtk9-dev", "qtbase5-dev", "libqt5opengl5-dev", "linux-perf",
+                                "python3-paraview-"]
+
+
+def minimal_status(folder: Path) -> Path:
+    """A dpkg status file of a minimal Debian: this machine's installed packages of priority required or
+    important (or essential) and, recursively, what they depend on."""
+    paragraphs = [p for p in Path("/var/lib/dpkg/status").read_text().split("\n\n") if p.strip()]
+    installed, provided = {}, {}
+    for paragraph in paragraphs:
+        fields = dict(re.findall(r"^([A-Za-z-]+): (.*)$", paragraph, re.M))
+        if "installed" in fields.get("Status", "") and "Package" in fields:
+            installed[fields["Package"]] = (paragraph, fields)
+            for name in fields.get("Provides", "").split(","):
+                provided.setdefault(name.strip().split(" ")[0], fields["Package"])
+    keep = {name for name, (_, f) in installed.items()
+            if f.get("Priority") in ("required", "important") or f.get("Essential") == "yes"}
+    todo = list(keep)
+    while todo:
+        fields = installed[todo.pop()][1]
+        for dependency in (fields.get("Depends", "") + "," + fields.get("Pre-Depends", "")).split(","):
+            for alternative in dependency.split("|"):
+                name = alternative.strip().split(" ")[0].split(":")[0]
+                name = name if name in installed else provided.get(name)
+                if name:
+                    if name not in keep:
+                        keep.add(name)
+                        todo.append(name)
+                    break
+    path = folder / "status"
+    path.write_text("\n\n".join(installed[name][0] for name in sorted(keep)) + "\n\n")
+    return path
+
+
+def apt_estimate(status: Path, packages: list[str], recommends: bool) -> str:
+    """Packages, download and installed size of installing packages on the system of the status file."""
+    command = ["apt-get", "-s", "-o", f"Dir::State::status={status}", "install", *packages]
+    if not recommends:
+        command.append("--no-install-recommends")
+    out = subprocess.run(command, capture_output=True, text=True).stdout
+    names = [line.split()[1] for line in out.splitlines() if line.startswith("Inst ")]
+    if not names:
+        return "apt-get found nothing to install (no apt, or the simulation failed)"
+    shown = subprocess.run(["apt-cache", "show", "--no-all-versions", *names], capture_output=True, text=True).stdout
+    size = sum(int(v) for v in re.findall(r"^Size: (\d+)", shown, re.M))
+    installed = sum(int(v) for v in re.findall(r"^Installed-Size: (\d+)", shown, re.M))
+    return f"{len(names)} packages, {size / 1e6:.0f} MB to download, {installed / 1e3:.0f} MB installed"
+
+
+def install_estimate(pip: bool) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        status = minimal_status(Path(tmp))
+        print("Debian packages on a minimal Debian (apt-get -s):")
+        print(f"  setup.sh (everything, with recommends):   {apt_estimate(status, ALL_PACKAGES, True)}")
+        print(f"  setup.sh main (main job, no recommends):  {apt_estimate(status, MAIN_PACKAGES, False)}")
+        print(f"  the main job's packages with recommends:  {apt_estimate(status, MAIN_PACKAGES, True)}", flush=True)
+        if pip:
+            # a clone: an editable install writes its metadata into the source folder
+            src, venv = Path(tmp) / "src", Path(tmp) / "venv"
+            subprocess.run(["git", "clone", "-q", str(REPO), str(src)], check=True)
+            subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+            for what in (".", ".[test]"):
+                t0 = time.perf_counter()
+                subprocess.run([str(venv / "bin" / "pip"), "install", "-q", "--no-cache-dir",
+                                "--disable-pip-version-check", "-e", what], cwd=src, check=True)
+                print(f"  pip install -e {what:<8} in a new venv: {time.perf_counter() - t0:.1f} s "
+                      f"(load average {os.getloadavg()[0]:.1f})", flush=True)
+
+
 def start_up(src: Path, cache: Path, work: Path) -> float:
     """Wall seconds of the fastest of three warm 1-particle engine runs (imports, cached kernels, 100 steps)."""
     sys.path.insert(0, str(REPO / "benchmarks"))
@@ -115,7 +194,12 @@ def main():
     parser.add_argument("--no-warm", action="store_true", help="skip the warm pass")
     parser.add_argument("--keep", type=Path, help="work in this (new) folder and keep it")
     parser.add_argument("--analyze", type=Path, metavar="HOME", help="only the breakdown of this workspace")
+    parser.add_argument("--install", action="store_true", help="only the estimate of a fresh installation")
+    parser.add_argument("--pip", action="store_true", help="with --install: time pip in a new virtual environment")
     args = parser.parse_args()
+    if args.install:
+        install_estimate(args.pip)
+        return
     if args.analyze:
         breakdown(records(args.analyze), args.jobs)
         return
