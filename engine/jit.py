@@ -43,6 +43,7 @@ from numba.core import types as nbtypes
 from numba.core.caching import CompileResultCacheImpl, FunctionCache, _Cache, _CacheLocator
 from numba.core.dispatcher import Dispatcher
 from numba.core.extending import _Intrinsic
+from numba.core.runtime import rtsys
 
 #: what every key includes: machine code depends on the compiler and on NumPy's implementations
 TOOLCHAIN = f"python {sys.version_info[:3]} numba {numba.__version__} numpy {np.__version__}"
@@ -214,6 +215,15 @@ class _ContentCache(FunctionCache):
             super().__init__(py_func)
         finally:
             del _ContentLocator.pending[py_func]
+
+    def load_overload(self, sig, target_context):
+        # Numba's refreshes the target context first, which imports every module of implementations (numpy's
+        # functions, scipy's BLAS check: about a second at each engine start) that only compiling needs; loading
+        # machine code needs the runtime (NRT) alone, and a compilation refreshes the context itself
+        rtsys.initialize(target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+        return None  # an I/O error the guard swallowed
 
     def _index_key(self, sig, codegen):
         # a namedtuple argument is typed by its class and field types, not names: fields renamed or reordered

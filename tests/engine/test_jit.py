@@ -156,3 +156,39 @@ def test_two_processes_compile_a_function_once(tmp_path):
         results.append(tuple(int(v) for v in out.split()))
     # (misses, hits) of each process: one compiled, the other loaded
     assert sorted(results) == [(0, 1), (1, 0)]
+
+
+ARRAYS = '''
+import sys
+import numpy as np
+sys.path.insert(0, sys.argv[1])
+from engine.jit import njit
+
+
+@njit(cache=True)
+def ramp(n, step):
+    out = np.empty(n)            # allocated by Numba's runtime (NRT)
+    for i in range(n):
+        out[i] = i * step
+    return out
+
+
+values = ramp(5, 0.5)
+print(values.tolist(), ramp.stats.cache_hits.get(ramp.signatures[0], 0), "numba.np.arraymath" in sys.modules)
+'''
+
+
+def test_machine_code_loads_without_the_compilers_registries(tmp_path):
+    """A warm start loads machine code without importing Numba's modules of implementations (about a second
+    of each engine start): the function loaded from the cache allocates and returns its array all the same."""
+    import os
+    import subprocess
+
+    (tmp_path / "arrays.py").write_text(ARRAYS)
+    env = dict(os.environ, DEM_CACHE_DIR=str(tmp_path / "cache"))
+    engine_root = str(jit.Path(jit.__file__).parent.parent)
+    runs = [subprocess.run([sys.executable, str(tmp_path / "arrays.py"), engine_root], env=env, capture_output=True,
+                           text=True, check=True).stdout.split("]") for _ in range(2)]
+    assert runs[0][0] == runs[1][0] == "[0.0, 0.5, 1.0, 1.5, 2.0"
+    assert runs[0][1].split() == ["0", "True"]    # compiled: the compiler's registries are loaded
+    assert runs[1][1].split() == ["1", "False"]   # loaded: they are not
