@@ -17,6 +17,12 @@ the functions that call it, and only those. `content_key` is also the dependency
 generated step kernels (`engine.kernels.build_kernel`).
 
 The key is computed at a function's first call (every module is imported by then), not at decoration.
+
+Runs started together (``harness run -j N``) often need the same new function: a compilation holds a file lock
+named by the function's key (``<cache_dir>/jit/<key>.lock``, the `filelock` package), so a second process waits
+for the first and loads its machine code instead of compiling it too. Locks are taken caller before callee,
+along the call graph, so two processes never wait for each other; the operating system drops a dead process'
+lock.
 """
 from __future__ import annotations
 
@@ -31,10 +37,13 @@ from pathlib import Path
 
 import numba
 import numpy as np
+from filelock import FileLock, Timeout
+from numba.core import sigutils
 from numba.core import types as nbtypes
 from numba.core.caching import CompileResultCacheImpl, FunctionCache, _Cache, _CacheLocator
 from numba.core.dispatcher import Dispatcher
 from numba.core.extending import _Intrinsic
+from numba.core.runtime import rtsys
 
 #: what every key includes: machine code depends on the compiler and on NumPy's implementations
 TOOLCHAIN = f"python {sys.version_info[:3]} numba {numba.__version__} numpy {np.__version__}"
@@ -207,6 +216,15 @@ class _ContentCache(FunctionCache):
         finally:
             del _ContentLocator.pending[py_func]
 
+    def load_overload(self, sig, target_context):
+        # Numba's refreshes the target context first, which imports every module of implementations (numpy's
+        # functions, scipy's BLAS check: about a second at each engine start) that only compiling needs; loading
+        # machine code needs the runtime (NRT) alone, and a compilation refreshes the context itself
+        rtsys.initialize(target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+        return None  # an I/O error the guard swallowed
+
     def _index_key(self, sig, codegen):
         # a namedtuple argument is typed by its class and field types, not names: fields renamed or reordered
         # keep the signature, so their names go into the key
@@ -255,14 +273,52 @@ class _LazyContentCache(_Cache):
         self._real().flush()
 
 
+#: seconds a compilation waits for another process compiling the same function before it compiles on its own (a
+#: process stopped in a debugger, say, must not hold every other run forever)
+LOCK_WAIT = 600.0
+#: one lock object per key and process: they are re-entrant (a recursive function compiles inside its own
+#: compilation), two objects on one file are not
+_locks: dict = {}
+
+
+def _compile_locked(dispatcher):
+    """dispatcher.compile under the file lock of its content key (module docstring): a signature it has
+    already compiled or loaded in this process takes no lock."""
+    compile_unlocked = dispatcher.compile
+
+    def compile(sig):
+        args, _ = sigutils.normalize_signature(sig)
+        if tuple(args) in dispatcher.overloads:
+            return compile_unlocked(sig)
+        key = content_key(dispatcher)
+        lock = _locks.get(key)
+        if lock is None:
+            folder = cache_dir() / "jit"
+            folder.mkdir(parents=True, exist_ok=True)
+            lock = _locks[key] = FileLock(str(folder / f"{key}.lock"), timeout=LOCK_WAIT)
+        try:
+            lock.acquire()
+        except Timeout:
+            return compile_unlocked(sig)
+        try:
+            # compiles, or loads what the process that held the lock saved
+            return compile_unlocked(sig)
+        finally:
+            lock.release()
+
+    dispatcher.compile = compile
+
+
 def njit(*args, **options):
-    """numba.njit; ``cache=True`` caches by content in <cache_dir>/jit (module docstring)."""
+    """numba.njit; ``cache=True`` caches by content in <cache_dir>/jit, compiling under a lock per key (module
+    docstring)."""
     cache = options.pop("cache", False)
 
     def decorate(fn):
         dispatcher = numba.njit(**options)(fn)
         if cache:
             dispatcher._cache = _LazyContentCache(dispatcher)
+            _compile_locked(dispatcher)
         return dispatcher
 
     if args and callable(args[0]):

@@ -3,7 +3,7 @@
 # check version consistency against the reference target, write JUnit XML.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/setup.sh
+bash scripts/setup.sh main
 harness build
 harness run -j "${HARNESS_JOBS:-2}"
 harness check --junit "${HARNESS_JUNIT:-.harness/junit.xml}"

@@ -329,6 +329,45 @@ def time_left(tasks_left: list[Task], durations: list, slots: int) -> float | No
     return max(sum(times) / max(slots, 1), max(times))
 
 
+def run_order(tasks: list[Task]) -> list[Task]:
+    """The order in which runs start when several go at once: so that the job does not end on one long run
+    while the other slots sit idle, and runs compiling code do not queue up together.
+
+    - A run whose expected time is known (``Task.expected``, its last wall time on this machine) goes by the
+      longest chain of runs that starts with it (its own time plus that of the runs waiting for it, the
+      longest branch), longest first.
+    - Runs with no such figure go first (they may be long, and nothing is known that would put them later),
+      taken in turn from each code build (adapter and commit), in their planned order within a build: on a
+      first run every build's first runs compile (the bundled engine its kernels, per engine version), and
+      runs of one build one after the other mostly need the same new kernels at the same time, where runs of
+      different builds need different ones or none.
+
+    Dependencies still hold (a run waits for the run it depends on, whatever its place)."""
+    by_key = {task.key: task for task in tasks}
+    waiting_for: dict = {}
+    for task in tasks:
+        if task.depends_on in by_key:
+            waiting_for.setdefault(task.depends_on, []).append(task)
+    chains: dict = {}
+
+    def chain(task: Task) -> float | None:
+        if task.key not in chains:
+            chains[task.key] = None  # a cycle (not planned) counts as unknown
+            rest = [chain(t) for t in waiting_for.get(task.key, [])]
+            if task.expected is not None and None not in rest:
+                chains[task.key] = task.expected + max(rest, default=0.0)
+        return chains[task.key]
+
+    builds: dict = {}
+    for task in tasks:
+        if chain(task) is None:
+            builds.setdefault((task.spec.adapter, task.key[3]), []).append(task)
+    unknown = [group[i] for i in range(max(map(len, builds.values()), default=0))
+               for group in builds.values() if i < len(group)]
+    known = sorted((task for task in tasks if chain(task) is not None), key=lambda task: -chain(task))
+    return unknown + known
+
+
 def _started(task: Task, since: float, tasks_left: list[Task], durations: list, slots: int, out) -> None:
     """A line as a run starts: elapsed time and an estimate of what is left (``time_left``)."""
     elapsed = time.monotonic() - since
@@ -383,6 +422,8 @@ class _Execution:
         if not self.pending:
             return
         self.pool = _Pool(self.options.jobs, self.options.scheduler)
+        if self.pool.slots > 1:
+            self.pending = run_order(self.pending)
         try:
             while self.pending or self.running:
                 submitted = self.submit_ready()

@@ -96,3 +96,99 @@ def test_engine_kernel_keys_follow_their_callees():
         neighbor.MAX_CELLS_PER_PARTICLE = old
         jit._keys.clear()
         jit._keys.update(saved)
+
+
+#: a function that takes a second or so to compile, loaded by two processes that start compiling together
+SLOW = '''
+from engine.jit import njit
+
+
+@njit(cache=True)
+def slow(n):
+    total = 0.0
+    for i in range(n):
+        {body}
+    return total
+'''
+
+RACE = '''
+import sys, time
+from pathlib import Path
+sys.path.insert(0, sys.argv[1])
+import slow_module
+go = Path(sys.argv[2])
+Path(sys.argv[3]).touch()                  # ready: numba and the module imported
+while not go.exists():
+    time.sleep(0.001)
+slow_module.slow(10)
+print(slow_module.slow.stats.cache_misses.get((slow_module.slow.signatures[0]), 0),
+      slow_module.slow.stats.cache_hits.get((slow_module.slow.signatures[0]), 0))
+'''
+
+
+def test_two_processes_compile_a_function_once(tmp_path):
+    """Two engines reaching a new function at the same moment: one compiles it, the other waits for the lock
+    and loads the machine code the first saved (without the lock both compile)."""
+    import os
+    import subprocess
+    import time
+
+    # enough independent branches that compiling takes about a second
+    body = "\n        ".join(f"if i % {k + 2} == 0:\n            total += {k}.5 * i / (i + {k + 1})"
+                             for k in range(120))
+    (tmp_path / "slow_module.py").write_text(SLOW.format(body=body))
+    (tmp_path / "race.py").write_text(RACE)
+    env = dict(os.environ, DEM_CACHE_DIR=str(tmp_path / "cache"),
+               PYTHONPATH=os.pathsep.join([str(jit.Path(jit.__file__).parent.parent), os.environ.get("PYTHONPATH", "")]))
+    go = tmp_path / "go"
+    procs = [subprocess.Popen([sys.executable, str(tmp_path / "race.py"), str(tmp_path), str(go),
+                               str(tmp_path / f"ready{k}")], env=env, stdout=subprocess.PIPE, text=True)
+             for k in range(2)]
+    deadline = time.monotonic() + 120
+    while not all((tmp_path / f"ready{k}").exists() for k in range(2)):
+        assert time.monotonic() < deadline and all(p.poll() is None for p in procs), "the processes did not start"
+        time.sleep(0.01)
+    go.touch()
+    results = []
+    for p in procs:
+        out, _ = p.communicate(timeout=300)
+        assert p.returncode == 0
+        results.append(tuple(int(v) for v in out.split()))
+    # (misses, hits) of each process: one compiled, the other loaded
+    assert sorted(results) == [(0, 1), (1, 0)]
+
+
+ARRAYS = '''
+import sys
+import numpy as np
+sys.path.insert(0, sys.argv[1])
+from engine.jit import njit
+
+
+@njit(cache=True)
+def ramp(n, step):
+    out = np.empty(n)            # allocated by Numba's runtime (NRT)
+    for i in range(n):
+        out[i] = i * step
+    return out
+
+
+values = ramp(5, 0.5)
+print(values.tolist(), ramp.stats.cache_hits.get(ramp.signatures[0], 0), "numba.np.arraymath" in sys.modules)
+'''
+
+
+def test_machine_code_loads_without_the_compilers_registries(tmp_path):
+    """A warm start loads machine code without importing Numba's modules of implementations (about a second
+    of each engine start): the function loaded from the cache allocates and returns its array all the same."""
+    import os
+    import subprocess
+
+    (tmp_path / "arrays.py").write_text(ARRAYS)
+    env = dict(os.environ, DEM_CACHE_DIR=str(tmp_path / "cache"))
+    engine_root = str(jit.Path(jit.__file__).parent.parent)
+    runs = [subprocess.run([sys.executable, str(tmp_path / "arrays.py"), engine_root], env=env, capture_output=True,
+                           text=True, check=True).stdout.split("]") for _ in range(2)]
+    assert runs[0][0] == runs[1][0] == "[0.0, 0.5, 1.0, 1.5, 2.0"
+    assert runs[0][1].split() == ["0", "True"]    # compiled: the compiler's registries are loaded
+    assert runs[1][1].split() == ["1", "False"]   # loaded: they are not
