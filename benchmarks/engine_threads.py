@@ -102,8 +102,8 @@ def threaded(build: Path) -> bool:
 
 
 def run(build: Path, threads: int, values: dict, scene: str = "settling") -> tuple[float, float, list]:
-    """(settle loop time, measure loop time, [pair, neigh, rebuilds, modify] of the measure run) of one engine
-    run; times in s."""
+    """(settle loop time, measure loop time, [pair, neigh, rebuilds, modify, particle-steps per CPU second] of
+    the measure run) of one engine run; times in s."""
     with tempfile.TemporaryDirectory() as tmp:
         script = SCENE
         if scene == "bed":
@@ -119,6 +119,7 @@ def run(build: Path, threads: int, values: dict, scene: str = "settling") -> tup
         loops = get_adapter("dem").loop_blocks(Path(tmp))
         phases = PHASES.findall((Path(tmp) / "log.dem").read_text())
         measured = [float(x) for x in phases[1]] if len(phases) > 1 else [math.nan] * 4
+        measured.append(loops[1].cpu_rate or math.nan)
         return loops[0].seconds, loops[1].seconds, measured
 
 
@@ -149,31 +150,35 @@ def main():
                 print(f"N={n} rep {rep + 1}: {config[0]} threads {config[1]}: settle {settle:.2f} s, "
                       f"measure {measure:.2f} s", flush=True)
         print(f"\nN = {n} ({args.scene}): {args.settle} + {args.measure} steps, median of {args.repeat} (loop "
-              f"times); steady = the measure run alone; ns = per particle-step of the measure run")
+              f"times); steady = the measure run alone; ns = per particle-step of the measure run; per cpu s = "
+              f"over the process' CPU time (robust to a loaded machine on one thread; on several it counts "
+              f"threads waiting)")
         print(f"{'build':<28} {'threads':>7} {'settle (s)':>11} {'measure (s)':>12} {'total (s)':>10} "
               f"{'first/this':>10} {'Mps/s':>7} {'steady Mps/s':>13} {'pair ns':>8} {'neigh ns':>9} "
-              f"{'modify ns':>10} {'rebuilds':>8}")
+              f"{'modify ns':>10} {'rebuilds':>8} {'steady Mps/cpu s':>16}")
         first = None
         for config in configs:
             settle = statistics.median(t[0] for t in times[config])
             measure = statistics.median(t[1] for t in times[config])
-            pair, neigh, rebuilds, modify = (statistics.median(t[2][k] for t in times[config]) for k in range(4))
+            pair, neigh, rebuilds, modify, cpu_rate = (statistics.median(t[2][k] for t in times[config])
+                                                       for k in range(5))
             total = settle + measure
             first = first or total
             rate = n * (args.settle + args.measure) / total
             steady = n * args.measure / measure
-            rates[config][n] = (rate, steady)
+            rates[config][n] = (rate, steady, cpu_rate)
             per = 1e9 / (n * args.measure)
             print(f"{str(config[0]):<28} {config[1]:>7} {settle:>11.2f} {measure:>12.2f} {total:>10.2f} "
                   f"{first / total:>10.2f} {rate / 1e6:>7.2f} {steady / 1e6:>13.2f} {pair * per:>8.1f} "
-                  f"{neigh * per:>9.1f} {modify * per:>10.1f} {rebuilds:>8.0f}")
+                  f"{neigh * per:>9.1f} {modify * per:>10.1f} {rebuilds:>8.0f} {cpu_rate / 1e6:>16.2f}")
     if len(args.sizes) > 1:
         print(f"\nrate at N / rate at the first N (goal at 1,000,000 against 10,000: >= 0.9)")
-        print(f"{'build':<28} {'threads':>7} {'N':>9} {'total':>7} {'steady':>7}")
+        print(f"{'build':<28} {'threads':>7} {'N':>9} {'total':>7} {'steady':>7} {'steady per cpu s':>16}")
         for config in configs:
             base = next(iter(rates[config].values()))
-            for n, (rate, steady) in list(rates[config].items())[1:]:
-                print(f"{str(config[0]):<28} {config[1]:>7} {n:>9} {rate / base[0]:>7.2f} {steady / base[1]:>7.2f}")
+            for n, (rate, steady, cpu_rate) in list(rates[config].items())[1:]:
+                print(f"{str(config[0]):<28} {config[1]:>7} {n:>9} {rate / base[0]:>7.2f} {steady / base[1]:>7.2f} "
+                      f"{cpu_rate / base[2]:>16.2f}")
 
 
 if __name__ == "__main__":
