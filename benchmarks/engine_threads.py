@@ -61,19 +61,26 @@ def variables(n: int, settle: int, measure: int) -> dict:
 
 def bed_scene(n: int) -> list:
     """A dense bed of about n spheres (r = 1.5 mm, the settling scene's material and contact model): a simple
-    cubic lattice 10 layers high, square in x-y, spacing 2.98 mm (each neighbour overlaps by 0.02 mm, 1.3 % of
-    r), in a box of five planes 1 % of r inside the outer spheres. Every sphere touches its six lattice
-    neighbours (or walls) from step 0, with gravity; the lattice rattles in place, so no rebuild is expected."""
-    spacing, layers = 0.00298, 10
+    cubic lattice 10 layers high, square in x-y, each sphere overlapping its six neighbours (and the walls of a
+    box of five planes around the lattice) by 0.1 um, with gravity. The overlaps hold it in place (the contact
+    forces stay far below the weight, which compresses each column by about 10 um at the bottom), so every
+    sphere is in contact from step 0, its contacts and their history in the pair loop, and few rebuilds."""
+    overlap, layers = 1e-7, 10
+    spacing = 2 * RADIUS - overlap
     side = max(1, round(math.sqrt(n / layers)))
-    half = 0.5 * side * spacing
-    top = layers * spacing
-    inset = 0.5 * spacing - RADIUS * 0.99  # walls 1 % of r into the outer spheres
-    planes = [("floor", "z", inset), ("left", "x", -half + inset), ("right", "x", half - inset),
-              ("front", "y", -half + inset), ("back", "y", half - inset)]
+    # lattice_points puts sites at lo + spacing/2 + k spacing and keeps the spheres entirely inside the region:
+    # the first site of each axis sticks out by overlap/2 and is dropped, so the region holds one site more
+    # (and 2 overlaps to spare at the far end); the kept sites are k = 1 ... side, centred on x = y = 0
+    lo = [-(side + 2) * spacing / 2] * 2 + [RADIUS - 1.5 * spacing]
+    hi = [lo[0] + (side + 1) * spacing + 2 * overlap] * 2 + [lo[2] + (layers + 1) * spacing + 2 * overlap]
+    first = [lo[a] + 1.5 * spacing for a in range(3)]  # the outer centres: first and last along each axis
+    last = [lo[0] + (side + 0.5) * spacing] * 2
+    planes = [("floor", "z", first[2] - RADIUS + overlap), ("left", "x", first[0] - RADIUS + overlap),
+              ("right", "x", last[0] + RADIUS - overlap), ("front", "y", first[1] - RADIUS + overlap),
+              ("back", "y", last[1] + RADIUS - overlap)]
     return [
-        {"command": "create", "object": "domain", "lo": [-half - 0.01, -half - 0.01, -0.01],
-         "hi": [half + 0.01, half + 0.01, top + 0.05]},
+        {"command": "create", "object": "domain", "lo": [lo[0] - 0.01, lo[1] - 0.01, -0.01],
+         "hi": [hi[0] + 0.01, hi[1] + 0.01, hi[2] + 0.05]},
         {"command": "create", "object": "material", "type": 1, "youngs_modulus": 5e6, "poisson_ratio": 0.45,
          "density": 2500},
         {"command": "create", "object": "interaction", "types": [1, 1], "restitution": 0.5, "friction": 0.3},
@@ -81,7 +88,7 @@ def bed_scene(n: int) -> list:
         *({"command": "create", "object": "wall", "name": name, "shape": "plane", "axis": axis, "position": pos,
            "type": 1} for name, axis, pos in planes),
         {"command": "create", "object": "lattice", "type": 1, "radius": RADIUS, "spacing": spacing,
-         "region": {"shape": "box", "lo": [-half, -half, 0.0], "hi": [half, half, top]}},
+         "region": {"shape": "box", "lo": lo, "hi": hi}},
         {"command": "create", "object": "modifier", "name": "gravity", "kind": "gravity",
          "acceleration": [0, 0, -9.81]},
         {"command": "fix", "name": "gravity"},
