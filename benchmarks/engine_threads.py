@@ -44,7 +44,6 @@ RADIUS = 0.0015  # m, as in the scene
 sys.path.insert(0, str(REPO))  # the harness' adapters read the logs
 from harness.adapters import get_adapter  # noqa: E402
 
-
 #: the phases of an engine `Loop time` line (engine/runner.py _report)
 PHASES = re.compile(r"Loop time of .*?; pair ([0-9.eE+-]+) s, neigh ([0-9.eE+-]+) s \(([0-9]+) rebuilds\), "
                     r"modify ([0-9.eE+-]+) s")
@@ -179,12 +178,12 @@ def main():
                   f"{first / total:>10.2f} {rate / 1e6:>7.2f} {steady / 1e6:>13.2f} {pair * per:>8.1f} "
                   f"{neigh * per:>9.1f} {modify * per:>10.1f} {rebuilds:>8.0f} {cpu_rate / 1e6:>16.2f}")
     if len(args.sizes) > 1:
-        print(f"\nrate at N / rate at the first N (goal at 1,000,000 against 10,000: >= 0.9)")
+        print("\nrate at N / rate at the first N (goal at 1,000,000 against 10,000: >= 0.9)")
         print(f"{'build':<28} {'threads':>7} {'N':>9} {'total':>7} {'steady':>7} {'steady per cpu s':>16}")
         for config in configs:
             base = next(iter(rates[config].values()))
             for n, (rate, steady, cpu_rate) in list(rates[config].items())[1:]:
-                print(f"{str(config[0]):<28} {config[1]:>7} {n:>9} {rate / base[0]:>7.2f} {steady / base[1]:>7.2f} "
+                print(f"{config[0]!s:<28} {config[1]:>7} {n:>9} {rate / base[0]:>7.2f} {steady / base[1]:>7.2f} "
                       f"{cpu_rate / base[2]:>16.2f}")
 
 

@@ -105,7 +105,7 @@ def test_on_several_threads_the_totals_are_written_only_where_they_are_read():
     combination = Combination(normal="hertz", tangential="history", planes=True, gravity=True, parallel=True)
 
     def integration(source):  # the particle pass's and the drift pass's integration (INTEGRATE)
-        return re.findall(r"\n( +)if drift:\n(.*?)\n\1else:\n(.*?)\n\1v\[i, 0\] = v0", source, re.S)
+        return re.findall(r"\n( +)if drift:\n(.*?)\n\1else:\n(.*?)\n\1v\[i, 0\] = v0", source, re.DOTALL)
 
     passes = integration(generate_source(combination))
     assert len(passes) == 2
