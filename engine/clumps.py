@@ -489,12 +489,12 @@ BODY_STEP = ("need_b, bad_b = body_pass(s, n, bodies, gravity, dt, True, True, n
 def member_clear(clear: str, store: str) -> str:
     """What the integration (engine/kernels.py INTEGRATE) does with a particle's force and torque after its
     drift: clear (start the next evaluation: gravity, zero) for free spheres only; a member stores its totals
-    (store) instead, since body_pass reads and clears them after the particle pass. Several threads store
-    every particle's totals (clear is store): nothing to tell apart."""
-    if clear == store:
-        return clear
+    (store) instead, since body_pass reads and clears them after the particle pass. Several threads leave a
+    free sphere's force as it is (clear is empty: the pair pass assigns it anew)."""
     def indented(code):
         return "".join("    " + line + "\n" for line in code.splitlines() if line.strip())
+    if not clear:
+        return "if inv_mass[i] == 0.0:\n" + indented(store)
     return "if inv_mass[i] != 0.0:\n" + indented(clear) + "else:\n" + indented(store)
 
 

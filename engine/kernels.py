@@ -374,8 +374,9 @@ ttot2 += tiz
 #: second half kick of v and omega (I = 0.4 m r^2); with drift, the next step's first half kick and the drift,
 #: then the neighbor check (moved more than skin/2: rebuild; a non-finite position fails every comparison: the
 #: run stops naming the particle). Without drift (a chunk's last step, setup) the totals are stored for Python
-#: to read; with drift they are read for the last time here, and (on one thread) the force and torque start
-#: the next evaluation in the same pass (${clear}: gravity, zero): no separate pass to clear them. v, omega, x
+#: to read; with drift they are read for the last time here: on one thread the force and torque start the
+#: next evaluation in the same pass (${clear}: gravity, zero; no separate pass to clear them), on several they
+#: are not written at all (the pair pass assigns them; a clump member's are stored for its body). v, omega, x
 #: are kept in locals between the kicks and the drift - the same operations in the same order as updating the
 #: arrays in place, so the same bytes, without reloading what a store might have changed
 INTEGRATE = """\
@@ -741,8 +742,10 @@ def _particle_pass(c: Combination, parts: list) -> str:
                                 for name, o in c.reaction_columns().items() if name != "force")
         gather = render(GATHER, clear="".join(f"gf{a} = {g}\n" for a, g in zip("xyz", gravity_force)),
                         gather_torque=gather_torque)
-    # several threads: the totals stay (the pair pass assigns f and torque anew); one thread: gravity, zero
-    clear = STORE_TOTALS if c.parallel else "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)) + \
+    # several threads: nothing - the pair pass assigns f and torque anew and no one reads the totals before
+    # (a chunk's last step stores them for Python: store_totals), so 48 B per particle are not written back;
+    # one thread: gravity, zero
+    clear = "" if c.parallel else "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)) + \
         "torque[i, 0] = 0.0\ntorque[i, 1] = 0.0\ntorque[i, 2] = 0.0\n"
     if c.clumps:  # a member's totals stay for its body's pass (engine/clumps.py)
         clear = clumps.member_clear(clear, STORE_TOTALS)

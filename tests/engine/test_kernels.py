@@ -97,6 +97,27 @@ def test_the_generated_loops_are_parallel_and_thread_safe_by_construction():
                                         "history_transfer")
 
 
+def test_on_several_threads_the_totals_are_written_only_where_they_are_read():
+    """The pair pass assigns every force anew on several threads: the particle pass writes a particle's total
+    force and torque only when Python reads them next (a chunk's last step, no drift) or a clump's body pass
+    does (a member); a drifting free sphere's are never written back. One thread clears them to m g, zero.
+    That the values Python reads stay the same is tests/engine/test_parallel.py (1 and 2 threads, bytes)."""
+    combination = Combination(normal="hertz", tangential="history", planes=True, gravity=True, parallel=True)
+
+    def integration(source):  # the particle pass's and the drift pass's integration (INTEGRATE)
+        return re.findall(r"\n( +)if drift:\n(.*?)\n\1else:\n(.*?)\n\1v\[i, 0\] = v0", source, re.DOTALL)
+
+    passes = integration(generate_source(combination))
+    assert len(passes) == 2
+    for _, drift, last in passes:
+        assert "f[i, 0] = ftot0" not in drift and "torque[i, 2] =" not in drift
+        assert "f[i, 0] = ftot0" in last and "torque[i, 2] = ttot2" in last
+    for _, drift, _ in integration(generate_source(dataclasses.replace(combination, clumps=True))):
+        assert re.search(r"if inv_mass\[i\] == 0\.0:\n +f\[i, 0\] = ftot0", drift)
+    for _, drift, _ in integration(generate_source(dataclasses.replace(combination, parallel=False))):
+        assert "f[i, 2] = mass[i] * gravity[2]" in drift and "torque[i, 0] = 0.0" in drift
+
+
 def test_a_new_kind_of_submodel_is_one_row_plus_its_law(tmp_path):
     """A twisting submodel (a torque about the normal, its partner turned the other way, one double of history
     that keeps its sign when i and j swap) added as one Submodel row and one Law row: the contact model command,
