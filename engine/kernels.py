@@ -222,10 +222,10 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
     pair_hist = nbr.hist
     rslot = nbr.rslot
     reaction = nbr.reaction
-    nblocks = (n + ${block} - 1) // ${block}
+    nblocks = block_count(n, ${block})
     for blk in prange(nblocks):
-        b = blk * ${block}
-        e = min(b + ${block}, n)
+        b = blk * n // nblocks
+        e = (blk + 1) * n // nblocks
         cin = np.empty((${nin}, ${chunk}))
         cout = np.empty((${nout}, ${chunk}))
         ck = np.empty(${chunk}, dtype=np.int64)
@@ -614,7 +614,7 @@ from numba import prange
 
 from engine.clock import now
 from engine.jit import njit
-from engine.neighbor import PARALLEL, rebuild
+from engine.neighbor import PARALLEL, block_count, rebuild
 ${imports}
 
 

@@ -26,11 +26,8 @@ from numba.extending import intrinsic
 from .jit import njit
 
 from .state import reorder
+from .threads import PARALLEL  # noqa: F401 (the generated kernels and mesh.py import it from here)
 
-#: prange loops only: Numba must not turn numpy calls into parallel reductions of its own (their summation
-#: order would depend on the thread count)
-PARALLEL = dict(prange=True, numpy=False, reduction=False, setitem=False, stencil=False, comprehension=False,
-                fusion=False)
 
 #: start (n+1), j (int32): the half list; hist (pairs, width): contact history; reaction (pairs, width): what j
 #: takes from each pair this step (force, and torques; zero when not in contact), in partner order: rows
@@ -67,6 +64,19 @@ def _threads(typingctx):
         fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(cgutils.intp_t, []), "get_num_threads")
         return builder.call(fn, [])
     return types.intp(), codegen
+
+
+@njit(cache=True, error_model="numpy")
+def block_count(n, size):
+    """How many blocks of at most `size` particles a parallel loop over n particles takes: a multiple of the
+    thread count, block k being particles k n // blocks ... (k + 1) n // blocks. OpenMP hands each thread one
+    contiguous share of the blocks (a static schedule), so every thread gets the same number of particles (with
+    blocks of exactly `size` the last is short and one thread had up to a block more than the other)."""
+    if n == 0:
+        return 0
+    threads = _threads()
+    blocks = (n + size - 1) // size
+    return (blocks + threads - 1) // threads * threads
 
 
 #: most parts a parallel counting sort splits its entries into (a count per bucket and part: parts x buckets
@@ -310,32 +320,39 @@ def _compact(found, slot, start, new_j):
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
 def _carry_history(order, old, new_start, new_j, new_hist, transfer):
     """Each new pair takes the history of the same pair in the old list (times transfer, per column, when i and
-    j swapped roles).
+    j swapped roles), a new pair zeros.
 
     New pair (p, b) is old pair (order[p], order[b]): it is found in the old row of the smaller old index (a
     binary search in a row of a few entries); with order[b] the owner there, i and j swapped roles. Every new
-    row is written by its owner only.
+    row is written by its owner only (all of it: new_hist comes uninitialised, no serial clearing pass).
     """
     n_old = old.start.shape[0] - 1
     width = new_hist.shape[1]
     for p in prange(new_start.shape[0] - 1):
         op = order[p]
-        if op >= n_old:
-            continue
         for k in range(new_start[p], new_start[p + 1]):
             ob = order[new_j[k]]
-            if ob >= n_old:
-                continue
-            if op < ob:
-                pos = _find(old.j[old.start[op]:old.start[op + 1]], ob)
-                if pos >= 0:
-                    for h in range(width):
-                        new_hist[k, h] = old.hist[old.start[op] + pos, h]
+            pos = -1
+            swapped = False
+            if op < n_old and ob < n_old:
+                if op < ob:
+                    pos = _find(old.j[old.start[op]:old.start[op + 1]], ob)
+                    if pos >= 0:
+                        pos += old.start[op]
+                else:
+                    swapped = True
+                    pos = _find(old.j[old.start[ob]:old.start[ob + 1]], op)
+                    if pos >= 0:
+                        pos += old.start[ob]
+            if pos < 0:
+                for h in range(width):
+                    new_hist[k, h] = 0.0
+            elif swapped:
+                for h in range(width):
+                    new_hist[k, h] = transfer[h] * old.hist[pos, h]
             else:
-                pos = _find(old.j[old.start[ob]:old.start[ob + 1]], op)
-                if pos >= 0:
-                    for h in range(width):
-                        new_hist[k, h] = transfer[h] * old.hist[old.start[ob] + pos, h]
+                for h in range(width):
+                    new_hist[k, h] = old.hist[pos, h]
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
@@ -470,7 +487,7 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer):
     new_start, new_j = _pairs(x, s.radius, new_cell, cell_start, nc, periodic, box, skin)
     m = new_start[nk]
     width = nbr.hist.shape[1]
-    new_hist = np.zeros((m if width > 0 else 0, width))
+    new_hist = np.empty((m if width > 0 else 0, width))
     if width > 0:
         _carry_history(order, nbr, new_start, new_j, new_hist, transfer)
     rstart, rslot = reverse_index(new_start, new_j, nk)
