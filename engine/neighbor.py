@@ -26,8 +26,11 @@ from numba.extending import intrinsic
 from .jit import njit
 
 from .state import reorder
-from .threads import PARALLEL  # noqa: F401 (the generated kernels and mesh.py import it from here)
 
+#: prange loops only: Numba must not turn numpy calls into parallel reductions of its own (their summation
+#: order would depend on the thread count)
+PARALLEL = dict(prange=True, numpy=False, reduction=False, setitem=False, stencil=False, comprehension=False,
+                fusion=False)
 
 #: start (n+1), j (int32): the half list; hist (pairs, width): contact history; reaction (pairs, width): what j
 #: takes from each pair this step (force, and torques; zero when not in contact), in partner order: rows
@@ -79,87 +82,31 @@ def block_count(n, size):
     return (blocks + threads - 1) // threads * threads
 
 
-#: most parts a parallel counting sort splits its entries into (a count per bucket and part: parts x buckets
-#: int64), and the fewest entries per part
-SORT_PARTS = 8
-SORT_PART_MIN = 4096
-
-
-@njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _count_parts(key, counts):
-    """counts[t, b]: the entries of part t (the t-th of len(counts) contiguous ranges of key) with key b."""
-    parts, nb = counts.shape
-    m = key.shape[0]
-    for t in prange(parts):
-        for b in range(nb):
-            counts[t, b] = 0
-        for k in range(t * m // parts, (t + 1) * m // parts):
-            counts[t, key[k]] += 1
-
-
-@njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _part_offsets(counts, start):
-    """Exclusive prefix sum in (bucket, part) order: counts[t, b] becomes the first place of part t's entries of
-    bucket b, start[b] the first place of bucket b (start[nbuckets]: all entries). Two passes over one range of
-    buckets per part: the sum of each range, then each range from the sum of the ranges before it."""
-    parts, nb = counts.shape
-    base = np.empty(parts + 1, dtype=np.int64)
-    base[0] = 0
-    for r in prange(parts):
-        total = 0
-        for b in range(r * nb // parts, (r + 1) * nb // parts):
-            for t in range(parts):
-                total += counts[t, b]
-        base[r + 1] = total
-    for r in range(parts):
-        base[r + 1] += base[r]
-    for r in prange(parts):
-        run = base[r]
-        for b in range(r * nb // parts, (r + 1) * nb // parts):
-            start[b] = run
-            for t in range(parts):
-                c = counts[t, b]
-                counts[t, b] = run
-                run += c
-    start[nb] = base[parts]
-
-
-@njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _scatter_parts(key, counts, slot):
-    """slot[k]: the place of entry k in the stable order by key (counts from _part_offsets)."""
-    parts = counts.shape[0]
-    m = key.shape[0]
-    for t in prange(parts):
-        for k in range(t * m // parts, (t + 1) * m // parts):
-            b = key[k]
-            slot[k] = counts[t, b]
-            counts[t, b] += 1
-
-
-@njit(cache=True, error_model="numpy")
-def stable_slots(key, nbuckets):
-    """Counting sort of the entries by key (0 <= key < nbuckets), stable: (start, slot), start[b]..start[b + 1]
-    the places of the entries with key b (start[nbuckets]: their number), slot[k] the place of entry k.
-
-    On T threads the entries are split into up to T contiguous parts (SORT_PARTS, SORT_PART_MIN): each part
-    counts its keys, a prefix sum in (key, part) order gives each part its first place per key, and each part
-    places its entries in order. The stable order is unique: the same bytes on any thread count."""
-    m = key.shape[0]
-    parts = max(1, min(_threads(), SORT_PARTS, m // SORT_PART_MIN))
-    counts = np.empty((parts, nbuckets), dtype=np.int64)
-    start = np.empty(nbuckets + 1, dtype=np.int64)
-    slot = np.empty(m, dtype=np.int64)
-    _count_parts(key, counts)
-    _part_offsets(counts, start)
-    _scatter_parts(key, counts, slot)
-    return start, slot
+@njit(cache=True, error_model="numpy", inline="always")
+def _bucket_starts(key, nbuckets):
+    """First slot of each bucket when the entries are ordered by key (counting sort): start[b]..start[b + 1]
+    hold the entries with key b; start[nbuckets] is the number of entries."""
+    start = np.zeros(nbuckets + 1, dtype=np.int64)
+    for k in range(key.shape[0]):
+        start[key[k] + 1] += 1
+    for b in range(nbuckets):
+        start[b + 1] += start[b]
+    return start
 
 
 @njit(cache=True, error_model="numpy")
 def reverse_index(start, j, n):
     """(rstart, rslot): rows rstart[p]..rstart[p+1] for the pairs k with j[k] == p in increasing k (so
-    increasing i); rslot[k] the row of pair k: the pairs sorted by partner, stably."""
-    return stable_slots(j, n)
+    increasing i); rslot[k] the row of pair k."""
+    m = j.shape[0]
+    rstart = _bucket_starts(j, n)
+    fill = rstart[:-1].copy()
+    rslot = np.empty(m, dtype=np.int64)
+    for k in range(m):
+        p = j[k]
+        rslot[k] = fill[p]
+        fill[p] += 1
+    return rstart, rslot
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -425,22 +372,20 @@ def _grid(x, radius, kept, lo, box, periodic, skin):
     return origin, cell_size, nc
 
 
-@njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _place_by_cell(cell_of, kept, slot, order, new_cell):
-    for q in prange(kept.shape[0]):
-        order[slot[q]] = kept[q]
-        new_cell[slot[q]] = cell_of[q]
-
-
 @njit(cache=True, error_model="numpy")
 def _sort_by_cell(cell_of, kept, ncells):
     """Counting sort of the kept particles by cell (stable, so deterministic): (new order as old indices, cell
     of each new index, first new index of each cell)."""
     nk = kept.shape[0]
-    cell_start, slot = stable_slots(cell_of[:nk], ncells)
+    cell_start = _bucket_starts(cell_of[:nk], ncells)
+    fill = cell_start[:-1].copy()
     order = np.empty(nk, dtype=np.int64)
     new_cell = np.empty(nk, dtype=np.int64)
-    _place_by_cell(cell_of, kept, slot, order, new_cell)
+    for q in range(nk):
+        c = cell_of[q]
+        order[fill[c]] = kept[q]
+        new_cell[fill[c]] = c
+        fill[c] += 1
     return order, new_cell, cell_start
 
 

@@ -17,10 +17,9 @@ from collections import namedtuple
 from dataclasses import dataclass
 
 import numpy as np
-from numba import literal_unroll, prange
+from numba import literal_unroll
 
 from .jit import njit
-from .threads import PARALLEL
 
 
 @dataclass(frozen=True)
@@ -126,18 +125,9 @@ def from_arrays(arrays: dict) -> ParticleState:
 
 # ---------------------------------------------------------------- compiled: re-ordering at a rebuild
 
-@njit(cache=True, error_model="numpy", parallel=PARALLEL)
+@njit(cache=True)
 def _reorder_rows(a, order, n):
-    """Rows 0..n-1 of a become its rows order[0..n-1] (through a copy: order mixes rows before and after)."""
-    width = a.size // a.shape[0] if a.shape[0] > 0 else 0
-    rows = a.reshape((a.shape[0], width))
-    moved = np.empty((n, width), dtype=a.dtype)
-    for q in prange(n):
-        for c in range(width):
-            moved[q, c] = rows[order[q], c]
-    for q in prange(n):
-        for c in range(width):
-            rows[q, c] = moved[q, c]
+    a[:n] = a[order]
 
 
 @njit(cache=True)

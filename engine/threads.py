@@ -19,10 +19,6 @@ import sys
 #: tests set 0 to run tiny scenes on every thread)
 SERIAL_BELOW = 2000
 LAYER_PRIORITY = "omp workqueue tbb"
-#: prange loops only: Numba must not turn numpy calls into parallel reductions of its own (their summation
-#: order would depend on the thread count)
-PARALLEL = dict(prange=True, numpy=False, reduction=False, setitem=False, stencil=False, comprehension=False,
-                fusion=False)
 
 
 def configure(requested: int | None):

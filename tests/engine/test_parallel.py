@@ -176,24 +176,3 @@ def test_neighbor_list_matches_brute_force_with_few_periodic_cells_along_the_las
     pairs = listed_pairs(s, nbr, n)
     assert pairs == brute_force_pairs(s.x, s.radius, s.pid, lo, hi, periodic, skin)
     assert len(pairs) > n // 2  # dense enough that a cell left out would lose pairs
-
-
-@pytest.mark.parametrize("buckets", [1, 7, 5000, 200_000])
-def test_the_parallel_counting_sort_is_the_stable_sort_on_any_thread_count(buckets):
-    """The rebuild's counting sorts (particles by cell, pairs by partner: engine/neighbor.py `stable_slots`) split
-    their entries into one part per thread: the places must be those of a stable sort, whatever the split."""
-    import numba
-
-    from engine.neighbor import SORT_PART_MIN, stable_slots
-
-    rng = np.random.default_rng(3)
-    key = rng.integers(0, buckets, size=9 * SORT_PART_MIN + 123).astype(np.int32)
-    key[:50] = buckets - 1  # a long run of one key across the first part's end
-    expected_slot = np.empty(len(key), dtype=np.int64)
-    expected_slot[np.argsort(key, kind="stable")] = np.arange(len(key))
-    expected_start = np.concatenate([[0], np.cumsum(np.bincount(key, minlength=buckets))])
-    for threads in range(1, numba.config.NUMBA_NUM_THREADS + 1):
-        numba.set_num_threads(threads)
-        start, slot = stable_slots(key, buckets)
-        assert np.array_equal(slot, expected_slot) and np.array_equal(start, expected_start), threads
-    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
