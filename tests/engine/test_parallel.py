@@ -176,3 +176,27 @@ def test_neighbor_list_matches_brute_force_with_few_periodic_cells_along_the_las
     pairs = listed_pairs(s, nbr, n)
     assert pairs == brute_force_pairs(s.x, s.radius, s.pid, lo, hi, periodic, skin)
     assert len(pairs) > n // 2  # dense enough that a cell left out would lose pairs
+
+
+def test_every_thread_gets_an_equal_share_of_the_pair_blocks():
+    """The pair pass (engine/kernels.py PAIR_FORCES) takes blocks of at most PAIR_BLOCK particles; OpenMP gives
+    each thread one contiguous share of them, so their count is a multiple of the thread count and the shares
+    differ by at most one particle per block (blocks of exactly 512 gave one thread of two 5,120 of 10,000)."""
+    import numba
+
+    from engine import threads
+    from engine.kernels import PAIR_BLOCK
+    from engine.neighbor import block_count
+
+    for count in range(1, numba.config.NUMBA_NUM_THREADS + 1):
+        assert threads.use(10 ** 6, count) == count
+        assert numba.get_parallel_chunksize() == 0  # one share per thread in every other loop too
+        assert block_count(0, PAIR_BLOCK) == 0
+        for n in (1, 7, 511, 512, 513, 10000, 10001, 99999):
+            blocks = block_count(n, PAIR_BLOCK)
+            assert blocks % count == 0 and blocks >= count
+            sizes = np.diff(np.arange(blocks + 1) * n // blocks)
+            assert sizes.sum() == n and sizes.max() <= PAIR_BLOCK and sizes.max() - sizes.min() <= 1
+            shares = sizes.reshape(count, -1).sum(axis=1)
+            assert shares.max() - shares.min() <= blocks // count
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
