@@ -107,7 +107,9 @@ def _compact_list(nbr, keep: np.ndarray):
     hist = nbr.hist[pair_kept] if nbr.hist.shape[0] == len(nbr.j) else nbr.hist
     rstart, rslot = reverse_index(new_start, new_j, len(per_owner))
     reaction = np.zeros((len(new_j), nbr.reaction.shape[1]))
+    touch = np.zeros(len(new_j), dtype=np.uint8)
     if nbr.reaction.shape[0] == len(nbr.j):
         reaction[rslot] = nbr.reaction[nbr.rslot[pair_kept]]
+        touch[rslot] = nbr.touch[nbr.rslot[pair_kept]]
     return nbr._replace(start=new_start, j=new_j, hist=np.ascontiguousarray(hist), rstart=rstart, rslot=rslot,
-                        reaction=reaction)
+                        reaction=reaction, touch=touch)
