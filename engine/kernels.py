@@ -223,6 +223,7 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
     rslot = nbr.rslot
     reaction = nbr.reaction
     pair_touch = nbr.touch
+    pair_own = nbr.own
     nblocks = (n + ${block} - 1) // ${block}
     for blk in prange(nblocks):
         b = blk * ${block}
@@ -317,20 +318,28 @@ if ${bits}:
     for h in range(${width}):
         pair_hist[k, h] = 0.0
 """
-#: the end of particle cur's pairs (the next contact's owner, or the end of the block e). Several threads: its
-#: own sum is assigned for every particle (pass 2 reads it); one thread: added only for a particle that had a
-#: contact as i (mine) - adding +0.0 sums would change nothing but -0.0, and pass 2 reads f + 0.0 (READ_SUMS)
+#: the end of particle cur's pairs (the next contact's owner, or the end of the block e): its own sum is stored
+#: only when it had a contact as i (mine). Several threads: assigned to f and torque, and own[i] tells pass 2
+#: whether to read them (GATHER: a particle without reads + 0.0, what the zero sum gave); one thread: added -
+#: adding +0.0 sums would change nothing but -0.0, and pass 2 reads f + 0.0 (READ_SUMS)
 FLUSH = {True: ("""\
 while cur < owner:
     i = cur
-    ${own_sum}
-    ${zero_sums}
+    if mine:
+        ${own_sum}
+        ${zero_sums}
+    pair_own[i] = mine
+    mine = False
     cur += 1
+mine = True
 """, """\
 while cur < e:
     i = cur
-    ${own_sum}
-    ${zero_sums}
+    if mine:
+        ${own_sum}
+        ${zero_sums}
+    pair_own[i] = mine
+    mine = False
     cur += 1
 """), False: ("""\
 if cur < owner:
@@ -471,6 +480,7 @@ def particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, kick, drift
     rstart = nbr.rstart
     reaction = nbr.reaction
     pair_touch = nbr.touch
+    pair_own = nbr.own
     half_dt = 0.5 * dt
     need = 0
     bad = n
@@ -511,12 +521,20 @@ for q in range(rstart[i], rstart[i + 1]):
         gfy -= reaction[q, 1]
         gfz -= reaction[q, 2]
         ${gather_torque}
-ftot0 = gfx + f[i, 0]
-ftot1 = gfy + f[i, 1]
-ftot2 = gfz + f[i, 2]
-ttot0 = gtx + torque[i, 0]
-ttot1 = gty + torque[i, 1]
-ttot2 = gtz + torque[i, 2]
+if pair_own[i]:
+    ftot0 = gfx + f[i, 0]
+    ftot1 = gfy + f[i, 1]
+    ftot2 = gfz + f[i, 2]
+    ttot0 = gtx + torque[i, 0]
+    ttot1 = gty + torque[i, 1]
+    ttot2 = gtz + torque[i, 2]
+else:  # no contact as i: its own sum is +0.0, not stored (FLUSH)
+    ftot0 = gfx + 0.0
+    ftot1 = gfy + 0.0
+    ftot2 = gfz + 0.0
+    ttot0 = gtx + 0.0
+    ttot1 = gty + 0.0
+    ttot2 = gtz + 0.0
 """
 #: the end of particle i's pairs: its own sum, stored (several threads) or added to what the pairs (i', i),
 #: i' < i, already subtracted from f[i] (one thread)

@@ -55,7 +55,8 @@ def insert(sim, **arrays):
         nbr = sim.nbr
         sim.nbr = nbr._replace(start=np.concatenate([nbr.start, np.full(count, nbr.start[-1], dtype=np.int64)]),
                                rstart=np.concatenate([nbr.rstart, np.full(count, nbr.rstart[-1],
-                                                                            dtype=np.int64)]))
+                                                                            dtype=np.int64)]),
+                               own=np.concatenate([nbr.own, np.zeros(count, dtype=np.uint8)]))
     mesh = sim.mesh_nbr
     if len(mesh.start) == n_old + 1:  # the new particles touch no triangle until the rebuild lists theirs
         sim.mesh_nbr = mesh._replace(start=np.concatenate([mesh.start, np.full(count, mesh.start[-1],
@@ -112,4 +113,4 @@ def _compact_list(nbr, keep: np.ndarray):
         reaction[rslot] = nbr.reaction[nbr.rslot[pair_kept]]
         touch[rslot] = nbr.touch[nbr.rslot[pair_kept]]
     return nbr._replace(start=new_start, j=new_j, hist=np.ascontiguousarray(hist), rstart=rstart, rslot=rslot,
-                        reaction=reaction, touch=touch)
+                        reaction=reaction, touch=touch, own=nbr.own[keep])

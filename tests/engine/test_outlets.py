@@ -107,7 +107,7 @@ class _Scene:
         reaction = np.empty((len(j), 3))
         reaction[rslot] = rng.random((len(j), 3))
         touch = rng.integers(0, 2, len(j)).astype(np.uint8)
-        self.nbr = NeighborList(start, j, hist, rstart, rslot, reaction, touch)
+        self.nbr = NeighborList(start, j, hist, rstart, rslot, reaction, touch, np.zeros(n, dtype=np.uint8))
         # particle-triangle contacts (engine/mesh.py): 0-3 triangles per particle, each with its history
         counts = rng.integers(0, 4, n)
         mesh_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
