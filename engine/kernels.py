@@ -194,10 +194,11 @@ tiz = 0.0
 RESET_HISTORY = "for h in range(${width}):\n    ${target} = 0.0\n"
 
 #: pass 1 of a force evaluation: each listed pair once, by its first particle i (i < j). On several threads
-#: i's own sum goes into f[i] and torque[i] and what j takes stays in the pair's row of `reaction` (zeros for a
-#: pair not in contact, so that pass 2 adds every row without a branch: x - (+0.0) and y + (+0.0) leave every
-#: sum bitwise as it is, since sums that start at +0.0 or m g never become -0.0): every iteration writes only
-#: rows of its own particle and its own pairs, no two threads write the same memory. On one thread i adds to
+#: i's own sum goes into f[i] and torque[i] (only when i has a contact: `own`) and what j takes stays in the
+#: pair's row of `reaction`, marked by its byte in `touch` (a pair not in contact writes only that byte, 0; pass 2
+#: skips its row, which adding did not change: x - (+0.0) and y + (+0.0) leave every sum bitwise as it is, since
+#: sums that start at +0.0 or m g never become -0.0): every iteration writes only rows of its own particle and
+#: its own pairs, no two threads write the same memory. On one thread i adds to
 #: j directly, in the same order (the former serial loop).
 #:
 #: The pairs are taken a block of PAIR_BLOCK particles at a time (the unit of work of a thread), and the
