@@ -16,8 +16,9 @@ that the waiting of a loaded machine does not count; with --threads 2, CPU secon
 revisions alternate within each repetition so that the load of a shared machine hits both alike. Printed: ns per
 particle per call for each, and the median ratio new / base.
 
-The forces the pair pass leaves (f, torque, history after the first call) are compared between the revisions
-byte for byte: "same forces" must say True for a change that keeps the engine's results.
+The forces the pair pass leaves (f, torque, history and the partners' reaction rows after the first call: what
+the particle pass reads of them, engine/kernels.py GATHER) are compared between the revisions byte for byte:
+"same forces" must say True for a change that keeps the engine's results.
 """
 from __future__ import annotations
 
@@ -60,7 +61,16 @@ lost = lost_record(n)
 n, nbr = m.rebuild(s, n, nbr, c.lo, c.hi, c.periodic, c.skin, sim.step, lost, c.history_transfer)
 f0, t0_, h0 = s.f.copy(), s.torque.copy(), nbr.hist.copy()
 m.pair_forces(s, n, nbr, kernel.pp, c.dt, c.characteristic_velocity, box)  # compiles or loads
-digest = hashlib.sha256(s.f.tobytes() + s.torque.tobytes() + nbr.hist.tobytes() + nbr.reaction.tobytes()).hexdigest()
+# what the particle pass reads of the pair pass' output: a reaction row only where its pair touches, f and
+# torque (several threads) only of a particle with a contact as i, f + 0.0 (one thread); a revision without
+# `touch` and `own` (older) wrote zeros there
+f_out, t_out, rows = s.f + 0.0, s.torque + 0.0, nbr.reaction.copy()
+if hasattr(nbr, "touch"):
+    rows[nbr.touch == 0] = 0.0
+if hasattr(nbr, "own") and threads > 1:
+    f_out[nbr.own == 0] = 0.0
+    t_out[nbr.own == 0] = 0.0
+digest = hashlib.sha256(f_out.tobytes() + t_out.tobytes() + nbr.hist.tobytes() + rows.tobytes()).hexdigest()
 pair = 0.0
 for _ in range(calls):  # every call from the same forces and history: the same work each time
     s.f[:] = f0

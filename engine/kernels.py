@@ -194,10 +194,11 @@ tiz = 0.0
 RESET_HISTORY = "for h in range(${width}):\n    ${target} = 0.0\n"
 
 #: pass 1 of a force evaluation: each listed pair once, by its first particle i (i < j). On several threads
-#: i's own sum goes into f[i] and torque[i] and what j takes stays in the pair's row of `reaction` (zeros for a
-#: pair not in contact, so that pass 2 adds every row without a branch: x - (+0.0) and y + (+0.0) leave every
-#: sum bitwise as it is, since sums that start at +0.0 or m g never become -0.0): every iteration writes only
-#: rows of its own particle and its own pairs, no two threads write the same memory. On one thread i adds to
+#: i's own sum goes into f[i] and torque[i] (only when i has a contact: `own`) and what j takes stays in the
+#: pair's row of `reaction`, marked by its byte in `touch` (a pair not in contact writes only that byte, 0; pass 2
+#: skips its row, which adding did not change: x - (+0.0) and y + (+0.0) leave every sum bitwise as it is, since
+#: sums that start at +0.0 or m g never become -0.0): every iteration writes only rows of its own particle and
+#: its own pairs, no two threads write the same memory. On one thread i adds to
 #: j directly, in the same order (the former serial loop).
 #:
 #: The pairs are taken a block of PAIR_BLOCK particles at a time (the unit of work of a thread), and the
@@ -222,6 +223,8 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
     pair_hist = nbr.hist
     rslot = nbr.rslot
     reaction = nbr.reaction
+    pair_touch = nbr.touch
+    pair_own = nbr.own
     nblocks = block_count(n, ${block})
     for blk in prange(nblocks):
         b = blk * n // nblocks
@@ -235,6 +238,7 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
         gi = b
         row_end = nbr_start[b + 1]
         cur = b
+        mine = False
         ${zero_sums}
         for c0 in range(nbr_start[b], nbr_start[e], ${chunk}):
             m = 0
@@ -292,22 +296,16 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
                 ${store}
             for cq in range(m):
                 owner = ci[cq]
-                while cur < owner:
-                    i = cur
-                    ${own_sum}
-                    ${zero_sums}
-                    cur += 1
+                ${flush}
                 k = ck[cq]
                 j = cj[cq]
                 ${row}
                 ${sums}
-        while cur < e:
-            i = cur
-            ${own_sum}
-            ${zero_sums}
-            cur += 1
+        ${flush_end}
 '''
-#: the listed pairs of a sweep found apart (cfar[:mf]): contact history reset, reaction row zeroed
+#: the listed pairs of a sweep found apart (cfar[:mf]): contact history reset - only where it is not zero
+#: already (a test of its bits: a read, where a store would fetch and write back every pair's row), row not
+#: touching (several threads: its reaction row is left as it is, pass 2 does not read it)
 FAR = """\
 for cq in range(mf):
     k = cfar[cq]
@@ -315,6 +313,48 @@ for cq in range(mf):
     ${reset_history}
     ${zero_row}
 """
+#: a history row is +0.0 in every column exactly when its bits are all zero (-0.0 is reset too)
+RESET_PAIR_HISTORY = """\
+if ${bits}:
+    for h in range(${width}):
+        pair_hist[k, h] = 0.0
+"""
+#: the end of particle cur's pairs (the next contact's owner, or the end of the block e): its own sum is stored
+#: only when it had a contact as i (mine). Several threads: assigned to f and torque, and own[i] tells pass 2
+#: whether to read them (GATHER: a particle without reads + 0.0, what the zero sum gave); one thread: added -
+#: adding +0.0 sums would change nothing but -0.0, and pass 2 reads f + 0.0 (READ_SUMS)
+FLUSH = {True: ("""\
+while cur < owner:
+    i = cur
+    if mine:
+        ${own_sum}
+        ${zero_sums}
+    pair_own[i] = mine
+    mine = False
+    cur += 1
+mine = True
+""", """\
+while cur < e:
+    i = cur
+    if mine:
+        ${own_sum}
+        ${zero_sums}
+    pair_own[i] = mine
+    mine = False
+    cur += 1
+"""), False: ("""\
+if cur < owner:
+    if mine:
+        i = cur
+        ${own_sum}
+        ${zero_sums}
+    cur = owner
+mine = True
+""", """\
+if mine:
+    i = cur
+    ${own_sum}
+""")}
 #: particles per block of the pair loop (a thread's unit of work; the results do not depend on it)
 PAIR_BLOCK = 512
 #: list entries per sweep of a block: the length of the columns (about 40 doubles per entry: 330 kB, in L2). Not a
@@ -415,9 +455,13 @@ omega[i, 2] = w2
 HALF_KICK = "".join(f"v{a} += half_dt * ftot{a} * inv_mi\nw{a} += half_dt * ttot{a} * inv_ii\n" for a in range(3))
 STORE_TOTALS = ("f[i, 0] = ftot0\nf[i, 1] = ftot1\nf[i, 2] = ftot2\ntorque[i, 0] = ttot0\ntorque[i, 1] = ttot1\n"
                 "torque[i, 2] = ttot2\n")
-#: one thread, no gathering: the totals start from what the pair pass left in f and torque
+#: the totals Python stored (a chunk's first drift: drift_pass)
 READ_TOTALS = ("ftot0 = f[i, 0]\nftot1 = f[i, 1]\nftot2 = f[i, 2]\nttot0 = torque[i, 0]\nttot1 = torque[i, 1]\n"
                "ttot2 = torque[i, 2]\n")
+#: one thread, no gathering: the totals start from what the pair pass left in f and torque, + 0.0: the pair pass
+#: adds a particle's own sum (never -0.0: it starts at +0.0) only when it had a contact as i, and x + 0.0 is x
+#: but for -0.0 - exactly what adding a sum of +0.0 gave before (OWN_SUM, FLUSH)
+READ_SUMS = "".join(f"{line} + 0.0\n" for line in READ_TOTALS.splitlines())
 
 #: pass 2 of a force evaluation, per particle: on several threads gravity (F = m g, the first force), minus
 #: what the pairs (i, p) left for p in `reaction` - added in increasing i, exactly the order of the serial
@@ -436,6 +480,8 @@ def particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, kick, drift
     mesh_touch = mnbr.touch
     rstart = nbr.rstart
     reaction = nbr.reaction
+    pair_touch = nbr.touch
+    pair_own = nbr.own
     half_dt = 0.5 * dt
     need = 0
     bad = n
@@ -461,24 +507,35 @@ def drift_pass(s, n, dt, half_skin_sq, gravity):
     return need, bad
 '''
 
-#: several threads: gravity (F = m g, the first force), minus what the pairs (i, p) left for p, in increasing i,
-#: plus p's own pair sum (pass 1 put it into f[p] and torque[p])
+#: several threads: gravity (F = m g, the first force), minus what the pairs (i, p) in contact left for p, in
+#: increasing i, plus p's own pair sum (pass 1 put it into f[p] and torque[p]). A row whose pair does not touch
+#: is not read (its line of memory not fetched): the pair pass no longer writes zeros there, and subtracting
+#: +0.0 from a force or adding it to a torque sum (which starts at +0.0, so is never -0.0) left it as it was
 GATHER = """\
 ${clear}
 gtx = 0.0
 gty = 0.0
 gtz = 0.0
 for q in range(rstart[i], rstart[i + 1]):
-    gfx -= reaction[q, 0]
-    gfy -= reaction[q, 1]
-    gfz -= reaction[q, 2]
-    ${gather_torque}
-ftot0 = gfx + f[i, 0]
-ftot1 = gfy + f[i, 1]
-ftot2 = gfz + f[i, 2]
-ttot0 = gtx + torque[i, 0]
-ttot1 = gty + torque[i, 1]
-ttot2 = gtz + torque[i, 2]
+    if pair_touch[q]:
+        gfx -= reaction[q, 0]
+        gfy -= reaction[q, 1]
+        gfz -= reaction[q, 2]
+        ${gather_torque}
+if pair_own[i]:
+    ftot0 = gfx + f[i, 0]
+    ftot1 = gfy + f[i, 1]
+    ftot2 = gfz + f[i, 2]
+    ttot0 = gtx + torque[i, 0]
+    ttot1 = gty + torque[i, 1]
+    ttot2 = gtz + torque[i, 2]
+else:  # no contact as i: its own sum is +0.0, not stored (FLUSH)
+    ftot0 = gfx + 0.0
+    ftot1 = gfy + 0.0
+    ftot2 = gfz + 0.0
+    ttot0 = gtx + 0.0
+    ttot1 = gty + 0.0
+    ttot2 = gtz + 0.0
 """
 #: the end of particle i's pairs: its own sum, stored (several threads) or added to what the pairs (i', i),
 #: i' < i, already subtracted from f[i] (one thread)
@@ -695,7 +752,7 @@ def _pair_forces(c: Combination) -> str:
     periodic = "".join(f"d{name} -= box[{a}] * np.rint(d{name} / box[{a}])\n"
                        for a, name in enumerate("xyz") if c.periodic[a])
     rows = c.parallel  # several threads: pair rows for the partner, gathered in the particle pass
-    zero_row = f"for h in range({c.reaction_width}):\n    reaction[q, h] = 0.0" if rows else ""
+    zero_row = "pair_touch[q] = 0" if rows else ""
     # clumps (engine/clumps.py): two members of one body do not touch; no such lines in a scene of spheres
     body_slots = dict(same_body_head=clumps.SAME_BODY_HEAD, body_i="body_i = member_body[pid[i]]",
                       same_body=render(clumps.SAME_BODY, zero_row=zero_row)) if c.clumps else \
@@ -711,19 +768,26 @@ def _pair_forces(c: Combination) -> str:
     store = "".join(f"cin[{first_hist + h}, cq] = h{h}\n" for h in range(width))
     contact, sums, nout = split_contact(contact_code(c, "pair"), nparam, width)
     sums = "".join(f"pair_hist[k, {h}] = cin[{first_hist + h}, cq]\n" for h in range(width)) + sums
+    if rows:
+        sums = "pair_touch[q] = 1\n" + sums
     head = PARTICLE_HEAD[:PARTICLE_HEAD.index("fix = 0.0")]
+    zero_sums = PARTICLE_HEAD[PARTICLE_HEAD.index("fix = 0.0"):]
     # the pairs found apart: their history reset and (several threads) their reaction rows zeroed, after the
     # contact-finding sweep; none of that without history on one thread
-    reset = _reset_history(c, "pair")
+    reset = render(RESET_PAIR_HISTORY, width=str(width),
+                   bits=" | ".join(f"hist_bits[k, {h}]" for h in range(width))) if width else ""
     row = "q = rslot[k]" if rows else ""
     far = dict(far_alloc=None, far_start=None, apart=None, far=None)
     if reset or zero_row:
-        far = dict(far_alloc=f"cfar = np.empty({CONTACT_CHUNK}, dtype=np.int64)", far_start="mf = 0",
+        far = dict(far_alloc=f"cfar = np.empty({CONTACT_CHUNK}, dtype=np.int64)\nhist_bits = pair_hist.view(np.uint64)",
+                   far_start="mf = 0",
                    apart="cfar[mf] = k\nmf += apart", far=render(FAR, row=row, reset_history=reset, zero_row=zero_row))
     return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), gather_head=head, block=str(PAIR_BLOCK), chunk=str(CONTACT_CHUNK),
-                  zero_sums=PARTICLE_HEAD[PARTICLE_HEAD.index("fix = 0.0"):],
+                  zero_sums=zero_sums,
                   nin=str(len(inputs)), nout=str(max(nout, 1)), gather=gather, load=load, store=store, sums=sums,
-                  periodic_image=periodic, row=row, contact=contact, own_sum=OWN_SUM[rows],
+                  periodic_image=periodic, row=row, contact=contact,
+                  flush=render(FLUSH[rows][0], own_sum=OWN_SUM[rows], zero_sums=zero_sums),
+                  flush_end=render(FLUSH[rows][1], own_sum=OWN_SUM[rows], zero_sums=zero_sums),
                   bodies=", bodies" if c.clumps else "", **far, **body_slots)
 
 
@@ -752,7 +816,7 @@ def _particle_pass(c: Combination, parts: list) -> str:
     load = "".join(f"{local}{a} = {array}[i, {a}]\n" for local, array in (("v", "v"), ("w", "omega")) for a in range(3))
     integrate = render(INTEGRATE, clear=clear, store_totals=STORE_TOTALS, half_kick=HALF_KICK, load=load)
     return render(PARTICLE_PASS, unpack=unpack("s", FIELD_NAMES), unpack_walls=unpack_walls,
-                  gather=gather or READ_TOTALS, walls=walls, integrate=integrate, read_totals=READ_TOTALS)
+                  gather=gather or READ_SUMS, walls=walls, integrate=integrate, read_totals=READ_TOTALS)
 
 
 def _step_loop(c: Combination, parts: list) -> str:

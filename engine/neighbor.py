@@ -33,9 +33,12 @@ PARALLEL = dict(prange=True, numpy=False, reduction=False, setitem=False, stenci
                 fusion=False)
 
 #: start (n+1), j (int32): the half list; hist (pairs, width): contact history; reaction (pairs, width): what j
-#: takes from each pair this step (force, and torques; zero when not in contact), in partner order: rows
-#: rstart[p]..rstart[p+1] (rstart: n+1) belong to the pairs (i, p), i increasing; rslot[k] is the row of pair k
-NeighborList = namedtuple("NeighborList", ["start", "j", "hist", "rstart", "rslot", "reaction"])
+#: takes from each pair this step (force, and torques), in partner order: rows rstart[p]..rstart[p+1] (rstart:
+#: n+1) belong to the pairs (i, p), i increasing; rslot[k] is the row of pair k; touch (pairs, uint8, in the
+#: rows' order): 1 when the row's pair is in contact at this step (its reaction row holds its share), 0 when not
+#: (its row is not written: it holds what an earlier step left); own (n, uint8): 1 when particle i had a contact
+#: as the first of a pair at this step (several threads: its own sum is in f[i] and torque[i]), 0 when not
+NeighborList = namedtuple("NeighborList", ["start", "j", "hist", "rstart", "rslot", "reaction", "touch", "own"])
 #: particles removed for leaving a fixed axis' range: ids, steps, and count[0] entries used
 LostParticles = namedtuple("LostParticles", ["ids", "steps", "count"])
 
@@ -45,13 +48,15 @@ MAX_CELLS_PER_PARTICLE = 8
 
 def empty_list(history: int = 0, reaction: int = 3) -> NeighborList:
     return NeighborList(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros((0, history)),
-                        np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, reaction)))
+                        np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, reaction)),
+                        np.zeros(0, dtype=np.uint8), np.zeros(0, dtype=np.uint8))
 
 
 def from_half_list(start, j, hist, n: int, reaction: int) -> NeighborList:
     """The full record of a half list (as restart files store it) for n particles."""
     rstart, rslot = reverse_index(start, j, n)
-    return NeighborList(start, j, hist, rstart, rslot, np.zeros((len(j), reaction)))
+    return NeighborList(start, j, hist, rstart, rslot, np.zeros((len(j), reaction)), np.zeros(len(j), np.uint8),
+                        np.zeros(n, np.uint8))
 
 
 def lost_record(capacity: int) -> LostParticles:
@@ -437,7 +442,8 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer):
         _carry_history(order, nbr, new_start, new_j, new_hist, transfer)
     rstart, rslot = reverse_index(new_start, new_j, nk)
     _copy_positions(x, s.x_build, nk)
-    return nk, NeighborList(new_start, new_j, new_hist, rstart, rslot, np.empty((m, nbr.reaction.shape[1])))
+    return nk, NeighborList(new_start, new_j, new_hist, rstart, rslot, np.empty((m, nbr.reaction.shape[1])),
+                            np.zeros(m, dtype=np.uint8), np.zeros(nk, dtype=np.uint8))
 
 
 @njit(cache=True, error_model="numpy")

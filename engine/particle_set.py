@@ -55,7 +55,8 @@ def insert(sim, **arrays):
         nbr = sim.nbr
         sim.nbr = nbr._replace(start=np.concatenate([nbr.start, np.full(count, nbr.start[-1], dtype=np.int64)]),
                                rstart=np.concatenate([nbr.rstart, np.full(count, nbr.rstart[-1],
-                                                                            dtype=np.int64)]))
+                                                                            dtype=np.int64)]),
+                               own=np.concatenate([nbr.own, np.zeros(count, dtype=np.uint8)]))
     mesh = sim.mesh_nbr
     if len(mesh.start) == n_old + 1:  # the new particles touch no triangle until the rebuild lists theirs
         sim.mesh_nbr = mesh._replace(start=np.concatenate([mesh.start, np.full(count, mesh.start[-1],
@@ -107,7 +108,9 @@ def _compact_list(nbr, keep: np.ndarray):
     hist = nbr.hist[pair_kept] if nbr.hist.shape[0] == len(nbr.j) else nbr.hist
     rstart, rslot = reverse_index(new_start, new_j, len(per_owner))
     reaction = np.zeros((len(new_j), nbr.reaction.shape[1]))
+    touch = np.zeros(len(new_j), dtype=np.uint8)
     if nbr.reaction.shape[0] == len(nbr.j):
         reaction[rslot] = nbr.reaction[nbr.rslot[pair_kept]]
+        touch[rslot] = nbr.touch[nbr.rslot[pair_kept]]
     return nbr._replace(start=new_start, j=new_j, hist=np.ascontiguousarray(hist), rstart=rstart, rslot=rslot,
-                        reaction=reaction)
+                        reaction=reaction, touch=touch, own=nbr.own[keep])

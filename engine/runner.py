@@ -120,6 +120,10 @@ def fit_history(sim, combo: Combination):
         nbr = nbr._replace(hist=np.zeros((len(nbr.j) if width else 0, width)))
     if nbr.reaction.shape != (len(nbr.j), combo.reaction_width):
         nbr = nbr._replace(reaction=np.zeros((len(nbr.j), combo.reaction_width)))
+    if nbr.touch.shape != nbr.j.shape:
+        nbr = nbr._replace(touch=np.zeros(len(nbr.j), dtype=np.uint8))
+    if len(nbr.own) != len(nbr.start) - 1:
+        nbr = nbr._replace(own=np.zeros(len(nbr.start) - 1, dtype=np.uint8))
     sim.nbr = nbr
     if sim.mesh_nbr.hist.shape[1] != width:  # another contact model: mesh contacts start without history
         sim.mesh_nbr = empty_mesh_list(0, width)

@@ -168,7 +168,8 @@ def test_a_new_kind_of_submodel_is_one_row_plus_its_law(tmp_path):
 
 def test_the_pair_pass_resets_exactly_the_pairs_apart():
     """The contact-finding sweep keeps the pairs in contact and the pairs apart without a branch (kernels.PAIR_FORCES):
-    every pair apart - and only those - gets its history reset and, on several threads, its reaction row zeroed."""
+    every pair apart - and only those - gets its history reset (to +0.0, also from -0.0) and, on several threads,
+    its row marked as not touching (`touch`, in the rows' order), its reaction row left unwritten."""
     from engine import state as particle_state
     from engine.neighbor import empty_list, lost_record, rebuild
 
@@ -191,6 +192,8 @@ def test_the_pair_pass_resets_exactly_the_pairs_apart():
         kept, nbr = rebuild(s, n, nbr, lo, hi, np.zeros(3, dtype=np.bool_), 0.002, 1, lost_record(n), -np.ones(3))
         assert kept == n
         nbr.hist[:] = 1e-6
+        nbr.hist[::3] = -0.0  # rows whose bits are not zero though they compare equal to zero
+        nbr.hist[1::3, 1] = 0.0
         nbr.reaction[:] = 7.0
         pp = parameter_table(c, materials, inter, 1)
         module.pair_forces(s, n, nbr, pp, 1e-5, 1.0, hi - lo)
@@ -198,10 +201,11 @@ def test_the_pair_pass_resets_exactly_the_pairs_apart():
         d = np.linalg.norm(s.x[owner] - s.x[nbr.j], axis=1)
         apart = d >= radius[owner] + radius[nbr.j]
         assert 0 < apart.sum() < len(apart) and (~apart).sum() > 1032  # both kinds, more contacts than a column
-        assert np.all(nbr.hist[apart] == 0.0) and np.all(nbr.hist[~apart] != 1e-6)
-        if parallel:
-            rows = nbr.reaction[nbr.rslot]  # pair k's row is rslot[k]
-            assert np.all(rows[apart] == 0.0) and np.all(rows[~apart] != 7.0)
+        assert np.all(nbr.hist[apart].view(np.uint64) == 0) and np.all(nbr.hist[~apart] != 1e-6)
+        if parallel:  # pair k's row is rslot[k]; the rows of pairs apart are marked, not written
+            rows, touch = nbr.reaction[nbr.rslot], nbr.touch[nbr.rslot]
+            assert np.all(touch[apart] == 0) and np.all(touch[~apart] == 1)
+            assert np.all(rows[apart] == 7.0) and np.all(rows[~apart] != 7.0)
         # a force on each particle in contact, none on the others (on several threads the partners' shares wait
         # in the rows: a force on the first particle of each contact only)
         touching = np.zeros(n, dtype=bool)

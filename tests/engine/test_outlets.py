@@ -106,7 +106,8 @@ class _Scene:
         hist = rng.random((len(j), width))
         reaction = np.empty((len(j), 3))
         reaction[rslot] = rng.random((len(j), 3))
-        self.nbr = NeighborList(start, j, hist, rstart, rslot, reaction)
+        touch = rng.integers(0, 2, len(j)).astype(np.uint8)
+        self.nbr = NeighborList(start, j, hist, rstart, rslot, reaction, touch, np.zeros(n, dtype=np.uint8))
         # particle-triangle contacts (engine/mesh.py): 0-3 triangles per particle, each with its history
         counts = rng.integers(0, 4, n)
         mesh_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
@@ -121,12 +122,14 @@ class _Scene:
 
 
 def _pairs_by_id(scene):
-    """{(id_i, id_j): (history row, reaction row)} of a half list."""
+    """{(id_i, id_j): (history row, reaction row, touching)} of a half list."""
     out = {}
     pid = scene.state.pid
+    nbr = scene.nbr
     for i in range(scene.n):
-        for k in range(scene.nbr.start[i], scene.nbr.start[i + 1]):
-            out[(pid[i], pid[scene.nbr.j[k]])] = (tuple(scene.nbr.hist[k]), tuple(scene.nbr.reaction[scene.nbr.rslot[k]]))
+        for k in range(nbr.start[i], nbr.start[i + 1]):
+            q = nbr.rslot[k]
+            out[(pid[i], pid[nbr.j[k]])] = (tuple(nbr.hist[k]), tuple(nbr.reaction[q]), int(nbr.touch[q]))
     return out
 
 
