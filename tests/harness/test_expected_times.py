@@ -74,6 +74,10 @@ def test_the_shipped_file_names_targets_and_runs_of_this_repository():
     for target, cases in times.items():
         assert (ROOT / "targets" / f"{target}.json").exists(), target
         for case, runs in cases.items():
+            if not (ROOT / case / "run.config").exists():
+                # a run.config the adapter generates (the liggghts target's input scripts, liggghts-doc examples)
+                assert (ROOT / case).is_dir() or not case.startswith("testcases/"), f"{target}: {case}"
+                continue
             config = json.loads((ROOT / case / "run.config").read_text())
             names = {run["name"] for run in config["runs"]}
             for name, seconds in runs.items():
