@@ -229,7 +229,11 @@ class _ContentCache(FunctionCache):
         # machine code needs the runtime (NRT) alone, and a compilation refreshes the context itself
         rtsys.initialize(target_context)
         with self._guard_against_spurious_io_errors():
-            return self._load_overload(sig, target_context)
+            try:
+                return self._load_overload(sig, target_context)
+            except ImportError:
+                # the code was compiled in a generated module that no longer exists (engine/kernels.py): compile
+                return None
         return None  # an I/O error the guard swallowed
 
     def _index_key(self, sig, codegen):

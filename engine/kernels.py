@@ -829,6 +829,20 @@ def parameter_table(c: Combination, materials: dict, interactions: dict, ntypes:
 
 # ---------------------------------------------------------------- building and caching
 
+class _KernelModules:
+    """Finds a generated kernel module by its name in the cache folder. Machine code is shared by the kernel
+    modules whose functions are alike (engine/jit.py), and Numba, loading code another module compiled, imports
+    that module for the globals the code was compiled with."""
+
+    @staticmethod
+    def find_spec(name, path=None, target=None):
+        if re.fullmatch(r"dem_kernel_[0-9a-f]{20}", name) and (cache_dir() / f"{name}.py").exists():
+            return importlib.util.spec_from_file_location(name, cache_dir() / f"{name}.py")
+        return None
+
+
+sys.meta_path.append(_KernelModules)
+
 _loaded: dict = {}
 #: the compiled functions of the kernel modules loaded in this process, by content key (engine/jit.py)
 _functions: dict = {}
