@@ -4,7 +4,9 @@ For each build (a folder holding engine/), engine/ is copied without its __pycac
 and DEM_CACHE_DIR points to an empty folder, as for a freshly built target of the harness; every dem run of the
 collection (sweeps expanded, chains in one folder) runs one after the other, then all again. Reported: wall
 time of the whole pass (processes included), the part the engine reports as compilation (timing.json
-`compile`), and cold/warm. Also the wall time of a warm 1-particle run (start-up).
+`compile`), and cold/warm; the CPU seconds of the engine processes of each pass and their difference, the
+compilation's CPU seconds (what a loaded machine changes least: compiling is one thread's work). Also the wall
+time of a warm 1-particle run (start-up).
 
     python benchmarks/engine_coldstart.py /tmp/old .
     python benchmarks/engine_coldstart.py . -k crosscode      # runs whose label contains 'crosscode'
@@ -14,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -35,10 +38,18 @@ ONE_PARTICLE = [
     {"command": "run", "steps": 100}]
 
 
-def collection_pass(src: Path, cache: Path, work: Path, match: str | None = None) -> tuple[float, float]:
-    """(wall seconds, compile seconds) of every dem run of the collection (whose label contains match)."""
+def children_cpu() -> float:
+    """CPU seconds (user + system) of the finished child processes of this one so far."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def collection_pass(src: Path, cache: Path, work: Path, match: str | None = None) -> tuple[float, float, float]:
+    """(wall seconds, compile seconds, CPU seconds) of every dem run of the collection (whose label contains
+    match)."""
     env = dict(os.environ, PYTHONPATH=str(src), DEM_CACHE_DIR=str(cache))
     wall = compile_time = 0.0
+    cpu0 = children_cpu()
     for index, (_, case, steps) in enumerate(dem_runs(REPO / "testcases", match)):
         folder = work / str(index)
         shutil.copytree(case, folder)
@@ -51,7 +62,7 @@ def collection_pass(src: Path, cache: Path, work: Path, match: str | None = None
             if (folder / "timing.json").exists():
                 compile_time += json.loads((folder / "timing.json").read_text()).get("compile", 0.0)
         shutil.rmtree(folder)
-    return wall, compile_time
+    return wall, compile_time, children_cpu() - cpu0
 
 
 def main():
@@ -60,13 +71,13 @@ def main():
     parser.add_argument("-k", dest="match", help="only runs whose label contains this text")
     args = parser.parse_args()
     print(f"{'build':<28} {'cold (s)':>9} {'compile':>8} {'warm (s)':>9} {'compile':>8} {'cold/warm':>9} "
-          f"{'1 particle (s)':>14}")
+          f"{'1 particle (s)':>14} {'cold CPU':>9} {'warm CPU':>9} {'compile CPU':>11}")
     for build in args.builds:
         with tempfile.TemporaryDirectory() as tmp:
             tmp = Path(tmp)
             shutil.copytree(build / "engine", tmp / "src" / "engine", ignore=shutil.ignore_patterns("__pycache__"))
-            cold, cold_compile = collection_pass(tmp / "src", tmp / "cache", tmp / "work", args.match)
-            warm, warm_compile = collection_pass(tmp / "src", tmp / "cache", tmp / "work", args.match)
+            cold, cold_compile, cold_cpu = collection_pass(tmp / "src", tmp / "cache", tmp / "work", args.match)
+            warm, warm_compile, warm_cpu = collection_pass(tmp / "src", tmp / "cache", tmp / "work", args.match)
             (tmp / "one").mkdir()
             (tmp / "one" / "scene.json").write_text(json.dumps(ONE_PARTICLE))
             env = dict(os.environ, PYTHONPATH=str(tmp / "src"), DEM_CACHE_DIR=str(tmp / "cache"))
@@ -77,7 +88,8 @@ def main():
                                capture_output=True)
                 starts.append(time.perf_counter() - t0)
         print(f"{str(build):<28} {cold:>9.1f} {cold_compile:>8.1f} {warm:>9.1f} {warm_compile:>8.1f} "
-              f"{cold / warm:>9.2f} {min(starts):>14.2f}", flush=True)
+              f"{cold / warm:>9.2f} {min(starts):>14.2f} {cold_cpu:>9.1f} {warm_cpu:>9.1f} "
+              f"{cold_cpu - warm_cpu:>11.1f}", flush=True)
 
 
 if __name__ == "__main__":

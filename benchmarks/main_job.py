@@ -16,6 +16,11 @@ engine run.
     python benchmarks/main_job.py --analyze /tmp/home # the breakdown of a workspace that ran the job
     python benchmarks/main_job.py --install           # what a fresh machine downloads (apt-get -s, no download)
     python benchmarks/main_job.py --install --pip     # and pip's time in a new virtual environment
+    python benchmarks/main_job.py --write-times /tmp/home  # ship that workspace's wall times (see below)
+
+--write-times writes the wall times of a workspace's runs (after this benchmark, those of the warm pass) into
+harness/execution/expected_times.json: the figures the scheduler starts the long runs first by on a machine
+whose workspace has no record of them yet (harness/execution/expected.py).
 
 --install estimates the Debian part of a fresh machine's installation without installing anything: apt-get
 simulates the installation of setup.sh's packages on a minimal Debian (the packages of priority required and
@@ -196,7 +201,19 @@ def main():
     parser.add_argument("--analyze", type=Path, metavar="HOME", help="only the breakdown of this workspace")
     parser.add_argument("--install", action="store_true", help="only the estimate of a fresh installation")
     parser.add_argument("--pip", action="store_true", help="with --install: time pip in a new virtual environment")
+    parser.add_argument("--write-times", type=Path, metavar="HOME",
+                        help="ship the wall times of this workspace's runs (harness/execution/expected_times.json)")
     args = parser.parse_args()
+    if args.write_times:
+        sys.path.insert(0, str(REPO))
+        from harness.execution.expected import SHIPPED, write_shipped
+
+        runs = records(args.write_times)
+        commits = sorted({(r.get("build") or {}).get("commit", "")[:12] for r in runs if r.get("target") == "dem"})
+        count = write_shipped(runs, f"benchmarks/main_job.py, dem at {', '.join(commits)}, "
+                                    f"{datetime.now():%Y-%m-%d}, -j {args.jobs} on {os.cpu_count()} cores")
+        print(f"{count} runs' wall times written to {SHIPPED}")
+        return
     if args.install:
         install_estimate(args.pip)
         return

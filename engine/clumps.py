@@ -479,9 +479,9 @@ if body_i >= 0 and member_body[pid[j]] == body_i:
 SAME_BODY_HEAD = "member_body = bodies.member_body\n"
 #: the bodies' pass after each particle pass, and after the first drift of a chunk
 BODY_SETUP = "body_pass(s, n, bodies, gravity, dt, True, False, False, 0.0, lo, hi, periodic)\n"
-BODY_START = ("need_b, bad_b = body_pass(s, n, bodies, gravity, dt, False, False, True, half_skin_sq, lo, hi, "
+BODY_START = ("need_b, bad_b = body_pass(s, n, bodies, gravity, dt, off, off, on, half_skin_sq, lo, hi, "
               "periodic)\nneed += need_b\nfirst_bad = min(first_bad, bad_b)\n")
-BODY_STEP = ("need_b, bad_b = body_pass(s, n, bodies, gravity, dt, True, True, not record, half_skin_sq, lo, hi, "
+BODY_STEP = ("need_b, bad_b = body_pass(s, n, bodies, gravity, dt, on, on, not record, half_skin_sq, lo, hi, "
              "periodic)\n"
              "need += need_b\nfirst_bad = min(first_bad, bad_b)\n")
 

@@ -11,7 +11,8 @@ function is a hash of
 - and, recursively, the keys of the compiled functions and intrinsics it calls,
 
 plus the versions of Python, Numba and NumPy. The machine code goes to ``<cache_dir>/jit`` (``$DEM_CACHE_DIR``,
-else ``~/.cache/dem-engine``), shared by every build: a commit that changes a docstring, a comment, a function
+else ``~/.cache/dem-engine``) in files named by the function's name and key (not its module: a function
+generated alike into the kernel modules of two scenes is one file), shared by every build: a commit that changes a docstring, a comment, a function
 no kernel calls or a module without compiled code compiles nothing; one that changes a contact law compiles
 the functions that call it, and only those. `content_key` is also the dependency part of the key of the
 generated step kernels (`engine.kernels.build_kernel`).
@@ -202,6 +203,12 @@ class _ContentLocator(_CacheLocator):
 class _ContentImpl(CompileResultCacheImpl):
     _locator_classes = [_ContentLocator]
 
+    def get_filename_base(self, fullname, abiflags):
+        # the function's name and key, not its module's: a function generated alike into the kernel modules of
+        # two scenes (the same pair pass, other walls) is one file, compiled once
+        qualname = fullname.split(".", 1)[1].replace("<", "").replace(">", "")
+        return f"{qualname}-{self.locator.get_disambiguator()}"
+
 
 class _ContentCache(FunctionCache):
     """Numba's function cache with the content key as file name, stamp and index key."""
@@ -222,7 +229,11 @@ class _ContentCache(FunctionCache):
         # machine code needs the runtime (NRT) alone, and a compilation refreshes the context itself
         rtsys.initialize(target_context)
         with self._guard_against_spurious_io_errors():
-            return self._load_overload(sig, target_context)
+            try:
+                return self._load_overload(sig, target_context)
+            except ImportError:
+                # the code was compiled in a generated module that no longer exists (engine/kernels.py): compile
+                return None
         return None  # an I/O error the guard swallowed
 
     def _index_key(self, sig, codegen):

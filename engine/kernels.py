@@ -26,14 +26,15 @@ from collections import namedtuple
 from dataclasses import field, make_dataclass
 
 import numpy as np
+from numba.core.dispatcher import Dispatcher
 
 from . import clumps, superquadrics
 from .contact_laws import slip_velocity
-from .jit import cache_dir
+from .jit import cache_dir, content_key
 from .models import LAWS, PARAMETERS, SUBMODELS, options
 from .state import FIELD_NAMES
 from .templates import render, unpack
-from .walls import SHAPES, WALL_FEATURES, WALL_FIELDS
+from .walls import SHAPES, WALL_FEATURES, WALL_FIELDS, collect_wall_forces
 
 #: scalars and small arrays every step reads: dt (s), characteristic velocity (m/s, Hooke), gravity (m/s^2, 3),
 #: domain lo, hi (m, 3), periodic (3 booleans), skin (m). The fields of a namedtuple that compiled code
@@ -556,23 +557,18 @@ def clear_forces(s, n, gravity):
         torque[i, 2] = 0.0
 '''
 
-#: the force the particles exert on each wall: the contributions of the particles in increasing index (the
-#: order of a serial loop), only at steps where Python reads it
+#: the force the particles exert on each wall (engine/walls/__init__.py collect_wall_forces), only at steps where
+#: Python reads it
 WALL_FORCE_SUM = """\
 if record:
-    wall_force = walls.force
-    wall_torque = walls.torque
-    wall_force[:, :] = 0.0
-    wall_torque[:, :] = 0.0
-    for i in range(n):
-        for w in range(wall_part.shape[1]):
-            for a in range(3):
-                wall_force[w, a] -= wall_part[i, w, a]
-                wall_torque[w, a] -= wall_tpart[i, w, a]
+    collect_wall_forces(walls.force, walls.torque, wall_part, wall_tpart)
 """
 
-STEP_LOOP = '''\
-@njit(cache=True, error_model="numpy")
+#: the start of a run after the scene changed, plain Python: it runs once per run, and compiled it would cost a
+#: compilation of every pass it calls over again (Numba links the callees' code into the caller and optimizes
+#: and compiles the whole), about a quarter of the compile time of a scene's kernels; from Python it calls the
+#: passes' own compiled code, with the argument types run_steps gives them (one compilation each)
+SETUP = '''\
 def setup(s, n, nbr, mnbr, walls, pp, c, step, lost${bodies}${sq}):
     """Fresh neighbor lists and forces for the current state (start of a run after the scene changed).
     Returns (particles kept, neighbor list, mesh contact list)."""
@@ -591,8 +587,11 @@ def setup(s, n, nbr, mnbr, walls, pp, c, step, lost${bodies}${sq}):
     ${wall_force_sum}
     ${sq_setup}
     return n, nbr, mnbr
+'''
 
-
+#: the step loop, compiled. The passes' flags are run-time booleans (on, off) as Python passes them in setup: a
+#: literal True or False is a type of its own to Numba, and the pass would be compiled once more for it
+STEP_LOOP = '''\
 @njit(cache=True, error_model="numpy")
 def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost${bodies}${sq}):
     """nsteps Velocity-Verlet steps (fix nve/sphere order) of the first n particles of state s. Returns
@@ -601,6 +600,8 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost${bodies
     ${constants}
     box = hi - lo
     half_skin_sq = 0.25 * skin * skin
+    on = np.bool_(True)
+    off = np.bool_(False)
     status = 0
     bad = -1
     done = 0
@@ -635,7 +636,7 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost${bodies
         record = k_step == nsteps - 1
         wall_part = np.zeros((n if record else 0, ${nwalls}, 3))
         wall_tpart = np.zeros((n if record else 0, ${nwalls}, 3))
-        need, first_bad = particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, True, not record, record,
+        need, first_bad = particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, on, not record, record,
                                         wall_part, wall_tpart, half_skin_sq, plane_near)
         ${body_step}
         ${wall_force_sum}
@@ -685,6 +686,9 @@ ${clear_forces}
 
 
 ${wall_functions}
+
+
+${setup}
 
 
 ${step_loop}
@@ -819,10 +823,11 @@ def _particle_pass(c: Combination, parts: list) -> str:
                   gather=gather or READ_SUMS, walls=walls, integrate=integrate, read_totals=READ_TOTALS)
 
 
-def _step_loop(c: Combination, parts: list) -> str:
+def _step_loop(c: Combination, parts: list, template: str) -> str:
+    """The step loop (STEP_LOOP) or the setup (SETUP) of combination c."""
     def joined(hook):
         return "".join(getattr(part, hook) for part in parts)
-    return render(STEP_LOOP, constants=CONSTANTS, move_walls=joined("move"), wall_travel=joined("travel"),
+    return render(template, constants=CONSTANTS, move_walls=joined("move"), wall_travel=joined("travel"),
                   wall_setup=joined("setup"), wall_start=joined("at_start"), wall_rebuild=joined("after_rebuild"),
                   nwalls="walls.force.shape[0]" if c.has_walls else "0",
                   clear_forces="" if c.parallel else "clear_forces(s, n, gravity)",
@@ -840,11 +845,14 @@ def _step_loop(c: Combination, parts: list) -> str:
 def generate_source(c: Combination) -> str:
     """Python source of the compiled kernels for combination c."""
     parts = [shape.kernel(c) for shape in SHAPES.values()]
-    pair_forces, particle_pass, step_loop = _pair_forces(c), _particle_pass(c, parts), _step_loop(c, parts)
+    pair_forces, particle_pass = _pair_forces(c), _particle_pass(c, parts)
+    setup, step_loop = _step_loop(c, parts, SETUP), _step_loop(c, parts, STEP_LOOP)
     clear_forces = "" if c.parallel else render(CLEAR_FORCES, clear="".join(
         f"f[i, {a}] = {g}\n" for a, g in enumerate(_gravity_force(c))))
-    body = pair_forces + particle_pass + step_loop
+    body = pair_forces + particle_pass + setup + step_loop
     called = sorted({fn for law in c.laws() for fn in law.functions}, key=lambda fn: fn.__name__) + [slip_velocity]
+    if c.has_walls:
+        called.append(collect_wall_forces)
     called += [fn for part in parts for fn in part.calls]
     if c.clumps:
         called.append(clumps.body_pass)
@@ -855,7 +863,7 @@ def generate_source(c: Combination) -> str:
     # engine without them
     named = "".join(f" with {flag}" for flag in ("clumps", "superquadrics") if getattr(c, flag))
     source = render(MODULE, combination=repr(c) + named, imports=imports, pair_forces=pair_forces,
-                    particle_pass=particle_pass, clear_forces=clear_forces, step_loop=step_loop,
+                    particle_pass=particle_pass, clear_forces=clear_forces, setup=setup, step_loop=step_loop,
                     wall_functions="".join(part.functions for part in parts))
     # one thread: the loops compiled serially (prange is range there)
     return source if c.parallel else source.replace("parallel=PARALLEL", "parallel=False")
@@ -885,7 +893,23 @@ def parameter_table(c: Combination, materials: dict, interactions: dict, ntypes:
 
 # ---------------------------------------------------------------- building and caching
 
+class _KernelModules:
+    """Finds a generated kernel module by its name in the cache folder. Machine code is shared by the kernel
+    modules whose functions are alike (engine/jit.py), and Numba, loading code another module compiled, imports
+    that module for the globals the code was compiled with."""
+
+    @staticmethod
+    def find_spec(name, path=None, target=None):
+        if re.fullmatch(r"dem_kernel_[0-9a-f]{20}", name) and (cache_dir() / f"{name}.py").exists():
+            return importlib.util.spec_from_file_location(name, cache_dir() / f"{name}.py")
+        return None
+
+
+sys.meta_path.append(_KernelModules)
+
 _loaded: dict = {}
+#: the compiled functions of the kernel modules loaded in this process, by content key (engine/jit.py)
+_functions: dict = {}
 
 
 def build_kernel(c: Combination):
@@ -908,5 +932,10 @@ def build_kernel(c: Combination):
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     spec.loader.exec_module(module)
+    # a function generated alike into a module loaded before (another combination in this process) is taken
+    # from there: its machine code is compiled or loaded once per process
+    for attr, value in list(vars(module).items()):
+        if isinstance(value, Dispatcher) and value.py_func.__module__ == name:
+            setattr(module, attr, _functions.setdefault(content_key(value), value))
     _loaded[c] = module
     return module

@@ -838,8 +838,8 @@ def superquadric_pass(sq, laws, walls, gravity, dt, char_vel, collect, kick, dri
 #: the trailing arguments of setup and run_steps in a scene with superquadrics
 ARGUMENTS = ", sq, sq_laws"
 SETUP = "superquadric_pass(sq, sq_laws, walls, gravity, dt, char_vel, True, False, False, record)\n"
-START = "superquadric_pass(sq, sq_laws, walls, gravity, dt, char_vel, False, False, True, False)\n"
-STEP = "superquadric_pass(sq, sq_laws, walls, gravity, dt, char_vel, True, True, not record, record)\n"
+START = "superquadric_pass(sq, sq_laws, walls, gravity, dt, char_vel, off, off, on, off)\n"
+STEP = "superquadric_pass(sq, sq_laws, walls, gravity, dt, char_vel, on, on, not record, record)\n"
 
 
 # ---------------------------------------------------------------- Python side

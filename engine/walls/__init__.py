@@ -14,6 +14,7 @@ from collections import namedtuple
 
 import numpy as np
 
+from ..jit import njit
 from .cylinder import Cylinder
 from .mesh_wall import Mesh
 from .plane import Plane
@@ -96,3 +97,17 @@ def overlap_ratios(sim, x=None, radius=None) -> np.ndarray:
         x, radius = sim.state.x, sim.state.radius
     gaps = [g for name, shape in SHAPES.items() for g in shape.gaps(sim, of_shape(sim.walls, name), x, radius)]
     return -np.array(gaps).reshape(-1, len(x)) / radius
+
+
+@njit(cache=True, error_model="numpy")
+def collect_wall_forces(wall_force, wall_torque, wall_part, wall_tpart):
+    """The force (N) and torque about the origin (N m) the particles exert on each wall: minus what each
+    particle's contacts left in wall_part and wall_tpart (particle, wall, axis), added in increasing particle
+    index - the order of a serial loop, so the same bytes on any number of threads."""
+    wall_force[:, :] = 0.0
+    wall_torque[:, :] = 0.0
+    for i in range(wall_part.shape[0]):
+        for w in range(wall_part.shape[1]):
+            for a in range(3):
+                wall_force[w, a] -= wall_part[i, w, a]
+                wall_torque[w, a] -= wall_tpart[i, w, a]

@@ -32,6 +32,7 @@ from harness.config.targets import TargetDefinition
 from harness.config.testcases import RunEntry, TestCaseSpec, discover
 from harness.execution import execute as ex
 from harness.execution import profiles
+from harness.execution.expected import expected_times
 from harness.execution.builds import DONE_MARKER, BuildError, build_target, failed_build, record_current_build
 from harness.execution.planning import build_info, make_spec
 from harness.execution.workspace import workspace
@@ -77,8 +78,8 @@ class Task:
     planned: datetime = field(default_factory=lambda: datetime.now(timezone.utc))
     #: the record of a run that is not executed (its configuration has problems): stored as it is
     record: RunRecord | None = None
-    #: the wall time of this run configuration's last run by the target on this machine (s), any build: what
-    #: the estimate of the time left expects of it (None: never ran)
+    #: the wall time this run configuration is expected to take (s): its last run by the target on this machine,
+    #: any build, else the shipped figure (harness/execution/expected.py); None: unknown
     expected: float | None = None
 
 
@@ -154,11 +155,7 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
         # a new build sits silent for a while before its first run reports (the bundled engine: kernels)
         say(wrap(f"{target.name}@{build.commit[:10]}: first runs of this build: {adapter.first_run_note}", ""))
     tasks: dict[tuple, Task] = {}
-    last_wall: dict = {}
-    for path, name, wall in (Run.objects.filter(machine__name=options.machine, target__name=target.name,
-                                                wall_time__isnull=False)
-                             .order_by("-finished").values_list("testcase__path", "name", "wall_time")):
-        last_wall.setdefault((path, name), wall)
+    expected = expected_times(target.name, options.machine)
 
     def add(testcase: TestCaseSpec, entry: RunEntry, force: bool = False) -> None:
         key = (target.name, testcase.path, entry.name, build.commit)
@@ -181,7 +178,7 @@ def plan_target(target: TargetDefinition, options: RunOptions, report: RunReport
             report.skipped += 1
             return
         dependency = testcase.run(entry.depends_on) if entry.depends_on else None
-        task = Task(key, spec, expected=last_wall.get((testcase.path, entry.name)))
+        task = Task(key, spec, expected=expected.get((testcase.path, entry.name)))
         if dependency is not None:
             dep_key = (target.name, testcase.path, dependency.name, build.commit)
             dep_previous = existing.get((testcase.path, dependency.name, testcase.content_hash(dependency.name)))
@@ -318,10 +315,10 @@ def _release(task: Task) -> None:
 
 
 def time_left(tasks_left: list[Task], durations: list, slots: int) -> float | None:
-    """An estimate of the time the runs not finished yet take (s): each its own last wall time on this machine
-    (``Task.expected``) or else the mean wall time of the runs finished so far, summed over the parallel
-    slots, and at least the longest of them (a 5-minute hopper left alone is 5 minutes, not the mean of the
-    short runs). None when some run has neither figure."""
+    """An estimate of the time the runs not finished yet take (s): each its expected time (``Task.expected``: its
+    last wall time on this machine or the shipped one) or else the mean wall time of the runs finished so far,
+    summed over the parallel slots, and at least the longest of them (a 5-minute hopper left alone is 5
+    minutes, not the mean of the short runs). None when some run has neither figure."""
     mean = sum(durations) / len(durations) if durations else None
     times = [task.expected if task.expected is not None else mean for task in tasks_left]
     if not times or any(t is None for t in times):
@@ -333,9 +330,9 @@ def run_order(tasks: list[Task]) -> list[Task]:
     """The order in which runs start when several go at once: so that the job does not end on one long run
     while the other slots sit idle, and runs compiling code do not queue up together.
 
-    - A run whose expected time is known (``Task.expected``, its last wall time on this machine) goes by the
-      longest chain of runs that starts with it (its own time plus that of the runs waiting for it, the
-      longest branch), longest first.
+    - A run whose expected time is known (``Task.expected``: its last wall time on this machine, else the one
+      shipped with the repository, harness/execution/expected.py) goes by the longest chain of runs that starts
+      with it (its own time plus that of the runs waiting for it, the longest branch), longest first.
     - Runs with no such figure go first (they may be long, and nothing is known that would put them later),
       taken in turn from each code build (adapter and commit), in their planned order within a build: on a
       first run every build's first runs compile (the bundled engine its kernels, per engine version), and

@@ -192,3 +192,48 @@ def test_machine_code_loads_without_the_compilers_registries(tmp_path):
     assert runs[0][0] == runs[1][0] == "[0.0, 0.5, 1.0, 1.5, 2.0"
     assert runs[0][1].split() == ["0", "True"]    # compiled: the compiler's registries are loaded
     assert runs[1][1].split() == ["1", "False"]   # loaded: they are not
+
+
+@pytest.mark.slow
+def test_a_scene_compiles_each_pass_once_and_shares_what_two_combinations_have_alike(tmp_path):
+    """A run of a scene of spheres, then a plane added and a second run (another combination in the same
+    process): the setup is not compiled, each pass has one signature (the step loop passes its flags as
+    run-time booleans, as the Python setup does), and the pair pass - alike in both combinations - is one
+    compiled function, which another process running the second combination alone loads (Numba imports the
+    module it was compiled in). The bytes of the results: benchmarks/engine_identical.py."""
+    import json
+    import os
+    import subprocess
+
+    from conftest import domain, interaction, material, model, plane
+
+    scene = [domain(), material(), interaction(mu=0.3), model(),
+             {"command": "create", "object": "lattice", "type": 1, "radius": 0.01, "spacing": 0.025,
+              "region": {"shape": "box", "lo": [-0.1, -0.1, -0.1], "hi": [0.1, 0.1, 0.1]}},
+             {"command": "set", "property": "timestep", "value": 1e-5},
+             {"command": "run", "steps": 20},
+             plane("floor", "z", -0.2),
+             {"command": "run", "steps": 20}]
+    (tmp_path / "scene.json").write_text(json.dumps(scene))
+    cache = tmp_path / "cache"
+    env = dict(os.environ, DEM_CACHE_DIR=str(cache),
+               PYTHONPATH=os.pathsep.join([str(jit.Path(jit.__file__).parent.parent), os.environ.get("PYTHONPATH", "")]))
+    subprocess.run([sys.executable, "-m", "engine", "-in", "scene.json"], cwd=tmp_path, env=env, check=True,
+                   capture_output=True)
+    modules = sorted(cache.glob("dem_kernel_*.py"))
+    assert len(modules) == 2                                   # two combinations
+    compiled = sorted(p.name for p in (cache / "jit").glob("*.nbc"))
+
+    def of(name):
+        return [p for p in compiled if p.startswith(name + "-")]
+    assert not of("setup")
+    assert len(of("pair_forces")) == 1                         # one function for both combinations
+    assert len(of("particle_pass")) == 2                       # one per combination, one signature each
+    assert len(of("run_steps")) == 2
+    assert len(of("drift_pass")) == 1                          # alike too: no gravity in either
+    # a new process running the second combination alone loads every function, the pair pass from the code
+    # compiled in the first combination's module
+    (tmp_path / "walled.json").write_text(json.dumps(scene[:6] + scene[7:]))
+    subprocess.run([sys.executable, "-m", "engine", "-in", "walled.json"], cwd=tmp_path, env=env, check=True,
+                   capture_output=True)
+    assert sorted(p.name for p in (cache / "jit").glob("*.nbc")) == compiled
