@@ -3,7 +3,8 @@ and the estimate of the time left (`scheduler.time_left`) go by.
 
 A run's expected time is its last wall time on this machine (any build of its target), else the wall time
 shipped with the repository in `expected_times.json` beside this module (the runs of the default collection,
-measured in one main job with an empty kernel cache: `python benchmarks/main_job.py --write-times HOME`), else
+the last wall time of each in one main job, i.e. its second pass, with the kernels cached: `python
+benchmarks/main_job.py --write-times HOME`), else
 unknown. So a fresh machine, whose workspace has no record yet, still starts its long runs first instead of
 finding them out at the end with one slot busy and the others idle. Another machine is faster or slower, but the
 order of the runs' lengths is what the scheduler uses, and that it keeps.
