@@ -139,6 +139,6 @@ def test_second_run_loads_the_kernel_from_the_disk_cache(tmp_path):
     kernels = list(cache.glob("dem_kernel_*.py"))
     assert len(kernels) == 1 and "hooke_normal" in kernels[0].read_text()
     assert "tangential" not in kernels[0].read_text().split('"""', 2)[2]  # only the named laws
-    assert list((cache / "jit").glob(kernels[0].stem + ".run_steps-*.nbi"))
+    assert list((cache / "jit").glob("run_steps-*.nbi"))  # named by the function and its content key
     assert machine_code[1] == machine_code[0]  # nothing compiled anew
     assert compile_seconds[1] < 0.25 * compile_seconds[0], compile_seconds

@@ -7,6 +7,7 @@ import sys
 import textwrap
 
 import pytest
+from conftest import domain, interaction, material, model, plane
 
 from engine import jit
 
@@ -205,7 +206,6 @@ def test_a_scene_compiles_each_pass_once_and_shares_what_two_combinations_have_a
     import os
     import subprocess
 
-    from conftest import domain, interaction, material, model, plane
 
     scene = [domain(), material(), interaction(mu=0.3), model(),
              {"command": "create", "object": "lattice", "type": 1, "radius": 0.01, "spacing": 0.025,
