@@ -14,10 +14,11 @@ import traceback
 from .errors import InputError, RunFailure
 from .log import Log, stderr_line
 
-USAGE = "usage: dem -in SCRIPT [-var NAME VALUE]... [-log FILE] [-threads N]"
+USAGE = "usage: dem -in SCRIPT [-var NAME VALUE]... [-log FILE] [-threads N] | dem -cache | dem -cache-prune SIZE"
 
 HELP = f"""{USAGE}
        python -m engine -in SCRIPT [-var NAME VALUE]... [-log FILE] [-threads N]
+       dem -cache | dem -cache-prune SIZE
 
 Run a DEM scene script (a JSON list of commands: create, get, set, fix, unfix, run) in the current folder.
 
@@ -28,6 +29,11 @@ options:
   -threads, -t N        threads of the compiled loops (default: NUMBA_NUM_THREADS, else every core); the
                         results are bitwise the same for every N
   -h, --help            show this text and exit
+  -cache                show the compiled-code cache ($DEM_CACHE_DIR, default ~/.cache/dem-engine): size,
+                        entries, limit ($DEM_CACHE_LIMIT, default 1G: a run that compiled removes the least
+                        recently used entries above it)
+  -cache-prune SIZE     remove the least recently used entries now until the cache holds at most 80 % of SIZE
+                        (e.g. 500M; 0 removes everything not used in the last hour)
 
 outputs (current folder): the log, thermo.csv, print files, VTK dumps, restart files, timing.json
 
@@ -105,6 +111,9 @@ def run(script: str, log_path: str | None, variables: dict, threads: int | None 
         from . import threads as thread_pool
 
         thread_pool.configure(threads)
+        from . import cache_limit
+
+        cache_limit.limit()  # a bad DEM_CACHE_LIMIT is an input error before anything runs
         import numpy as np
 
         from .script import load_script, substitute
@@ -142,6 +151,13 @@ def run(script: str, log_path: str | None, variables: dict, threads: int | None 
                 if message is None:
                     code, text = _unexpected(exc)
                     message = f"{script}: {text}"
+        if log is not None and message is None:
+            try:
+                from . import cache_limit  # as the imports of run(): after the log
+
+                cache_limit.after_run(cache_limit.cache_dir())
+            except OSError as exc:  # the run's results stand; the cache stays as it is
+                log.info(f"warning: the compiled-code cache was not pruned: {exc}")
         if message is not None:
             line = f"ERROR: {message}"
             if log is not None and log.handle is not None:
@@ -160,8 +176,39 @@ def run(script: str, log_path: str | None, variables: dict, threads: int | None 
     return code
 
 
+def cache_command(argv) -> int:
+    """`dem -cache` and `dem -cache-prune SIZE` (engine/cache_limit.py); the exit code."""
+    # the cache's module only: no numba (the jit module imports it) for a look at a folder
+    from .cache_limit import KEEP_RECENT, TARGET, cache_dir, parse_size, prune, summary
+
+    folder = cache_dir()
+    try:
+        if argv == ["-cache"]:
+            print(summary(folder))
+            return 0
+        if len(argv) == 2 and argv[0] == "-cache-prune":
+            try:
+                size = parse_size(argv[1])
+            except ValueError as exc:
+                raise InputError(f"-cache-prune: {exc}") from None
+            removed, freed, left = prune(folder, size) if folder.is_dir() else (0, 0, 0)
+            print(f"removed {removed} entries ({freed / 2**20:.1f} MiB) from {folder}; {left / 2**20:.1f} MiB left "
+                  f"(pruned to {TARGET:.0%} of {size / 2**20:.0f} MiB; entries used in the last "
+                  f"{KEEP_RECENT / 3600:.0f} h are kept)")
+            return 0
+        raise InputError(f"bad command line ({USAGE})")
+    except InputError as exc:
+        stderr_line(f"ERROR: {exc}")
+        return 2
+    except OSError as exc:
+        stderr_line(f"ERROR: {folder}: {exc.strerror or exc}")
+        return 1
+
+
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] in ("-cache", "-cache-prune"):
+        return cache_command(argv)
     try:
         parsed = parse_args(argv)
     except ValueError as exc:

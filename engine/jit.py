@@ -46,14 +46,11 @@ from numba.core.dispatcher import Dispatcher
 from numba.core.extending import _Intrinsic
 from numba.core.runtime import rtsys
 
+from . import cache_limit
+from .cache_limit import cache_dir
+
 #: what every key includes: machine code depends on the compiler and on NumPy's implementations
 TOOLCHAIN = f"python {sys.version_info[:3]} numba {numba.__version__} numpy {np.__version__}"
-
-
-def cache_dir() -> Path:
-    """$DEM_CACHE_DIR, else ~/.cache/dem-engine (generated kernels and the compiled functions' machine code)."""
-    env = os.environ.get("DEM_CACHE_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "dem-engine"
 
 
 def _strip_docstring(node):
@@ -230,11 +227,19 @@ class _ContentCache(FunctionCache):
         rtsys.initialize(target_context)
         with self._guard_against_spurious_io_errors():
             try:
-                return self._load_overload(sig, target_context)
-            except ImportError:
-                # the code was compiled in a generated module that no longer exists (engine/kernels.py): compile
+                loaded = self._load_overload(sig, target_context)
+            except (ImportError, FileNotFoundError):
+                # the code was compiled in a generated module that no longer exists (engine/kernels.py), or a
+                # prune removed it meanwhile (engine/cache_limit.py): compile
                 return None
+            if loaded is not None:  # used now: the last to go when the cache is pruned
+                cache_limit.touch(self._cache_file._index_path)
+            return loaded
         return None  # an I/O error the guard swallowed
+
+    def save_overload(self, sig, data):
+        super().save_overload(sig, data)
+        cache_limit.note_write()
 
     def _index_key(self, sig, codegen):
         # a namedtuple argument is typed by its class and field types, not names: fields renamed or reordered

@@ -28,7 +28,7 @@ from dataclasses import field, make_dataclass
 import numpy as np
 from numba.core.dispatcher import Dispatcher
 
-from . import clumps, superquadrics
+from . import cache_limit, clumps, superquadrics
 from .contact_laws import slip_velocity
 from .jit import cache_dir, content_key
 from .models import LAWS, PARAMETERS, SUBMODELS, options
@@ -927,6 +927,8 @@ def build_kernel(c: Combination):
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
         tmp.write_text(source)
         os.replace(tmp, path)  # atomic: parallel runs never import a half-written file
+    else:
+        cache_limit.touch(path)  # used now: the last to go when the cache is pruned (engine/cache_limit.py)
     name = f"dem_kernel_{key}"
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
