@@ -194,15 +194,19 @@ tiz = 0.0
 #: contact history is reset as soon as a contact opens (physically clean; see engine/README.md)
 RESET_HISTORY = "for h in range(${width}):\n    ${target} = 0.0\n"
 
-#: pass 1 of a force evaluation: each listed pair once, by its first particle i (i < j). On several threads
-#: i's own sum goes into f[i] and torque[i] (only when i has a contact: `own`) and what j takes stays in the
-#: pair's row of `reaction`, marked by its byte in `touch` (a pair not in contact writes only that byte, 0; pass 2
-#: skips its row, which adding did not change: x - (+0.0) and y + (+0.0) leave every sum bitwise as it is, since
-#: sums that start at +0.0 or m g never become -0.0): every iteration writes only rows of its own particle and
-#: its own pairs, no two threads write the same memory. On one thread i adds to
-#: j directly, in the same order (the former serial loop).
+#: pass 1 of a force evaluation: each listed pair once, by its first particle i (i < j), i adding what j takes
+#: straight to f[j] and torque[j] and its own sum to f[i] and torque[i] once its row ended (the serial loop).
+#: On several threads each thread runs that serial loop over its share (shares: equal runs of whole blocks,
+#: engine/neighbor.py share_start); a particle j whose pairs (q, j) all lie in its own share gets its sums
+#: exactly as on one thread. Only the band (engine/neighbor.py boundary_band: j listed by some q of an earlier
+#: share) is different: what j takes stays in the pair's row of `reaction`, marked by its byte in `touch` (a
+#: pair not in contact writes only that byte, 0; pass 2 skips its row, which adding did not change: x - (+0.0)
+#: and y + (+0.0) leave every sum bitwise as it is, since sums that start at +0.0 or m g never become -0.0),
+#: and f[j] (set to +0.0 by start_band) gets only j's own sum; pass 2 adds gravity, the rows in increasing q
+#: and the own sum, the serial order. No two threads write the same memory: a thread writes the forces of its
+#: own share's particles and the rows of its own pairs.
 #:
-#: The pairs are taken a block of PAIR_BLOCK particles at a time (the unit of work of a thread), and the
+#: The pairs are taken a block of PAIR_BLOCK particles at a time (a thread's share is a run of blocks), and the
 #: block's list entries CONTACT_CHUNK at a time, in three sweeps. (1) gather: the entries in contact, with what
 #: their force reads (distance vector, radii, masses, relative velocity, spins, the type pair's parameters,
 #: history) into the columns of `cin`; the others get their history reset. (2) contact: the force of every
@@ -446,10 +450,9 @@ READ_TOTALS = ("ftot0 = f[i, 0]\nftot1 = f[i, 1]\nftot2 = f[i, 2]\nttot0 = torqu
 #: but for -0.0 - exactly what adding a sum of +0.0 gave before (OWN_SUM, FLUSH)
 READ_SUMS = "".join(f"{line} + 0.0\n" for line in READ_TOTALS.splitlines())
 
-#: pass 2 of a force evaluation, per particle: on several threads gravity (F = m g, the first force), minus
-#: what the pairs (i, p) left for p in `reaction` - added in increasing i, exactly the order of the serial
-#: loop - plus p's own pair sum; then walls, the second half kick and (but at a chunk's last step) the next
-#: step's first half kick and drift. Returns (particles beyond skin/2, first non-finite position or n).
+#: pass 2 of a force evaluation, per particle: its force and torque sums (READ_SUMS; on several threads a
+#: particle of the band gathers them, GATHER); then walls, the second half kick and (but at a chunk's last step)
+#: the next step's first half kick and drift. Returns (particles beyond skin/2, first non-finite position or n).
 PARTICLE_PASS = '''\
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
 def particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, kick, drift, record, wall_part, wall_tpart,
@@ -490,10 +493,12 @@ def drift_pass(s, n, dt, half_skin_sq, gravity):
     return need, bad
 '''
 
-#: several threads: gravity (F = m g, the first force), minus what the pairs (i, p) in contact left for p, in
-#: increasing i, plus p's own pair sum (pass 1 put it into f[p] and torque[p]). A row whose pair does not touch
-#: is not read (its line of memory not fetched): the pair pass no longer writes zeros there, and subtracting
-#: +0.0 from a force or adding it to a torque sum (which starts at +0.0, so is never -0.0) left it as it was
+#: several threads, a particle p of the band: gravity (F = m g, the first force), minus what the pairs (i, p) in
+#: contact left for p, in increasing i, plus p's own pair sum (pass 1 added it to f[p] and torque[p], which
+#: start_band set to +0.0: +0.0 when p had no contact as i, what adding the zero sum gave). A row whose pair
+#: does not touch is not read (its line of memory not fetched): the pair pass does not write zeros there, and
+#: subtracting +0.0 from a force or adding it to a torque sum (which starts at +0.0, so is never -0.0) left it
+#: as it was
 GATHER = """\
 ${clear}
 gtx = 0.0

@@ -1,12 +1,13 @@
 """Cell-list neighbor lists with a skin, rebuilt when a particle has moved more than skin/2.
 
 The list is a *half* list in CSR form: pair k = (i, j[k]) for start[i] <= k < start[i+1], always with i < j and
-j increasing, so each pair is evaluated once (by i). So that no two threads ever write the same memory, i does
-not add the reaction to j's force itself: it leaves it in the pair's row of `reaction`, and j collects the rows
-of the pairs it belongs to, in the order a serial loop would have added them. The rows are ordered by partner
-(rows rstart[j]..rstart[j+1] are the pairs (i, j), i increasing; pair k writes row rslot[k]), so j reads its
-rows in one sweep. Forces are therefore bitwise the same on any number of
-threads, and the same as a serial half-list loop (engine/kernels.py).
+j increasing, so each pair is evaluated once (by i), which adds the reaction to j's force. On several threads
+each thread takes one share of the particles (`share_start`); a particle j listed by a particle of an earlier
+share (the boundary band, `boundary_band`) would get sums from two threads, so for it alone i leaves the
+reaction in the pair's row of `reaction`, and j collects the rows of the pairs it belongs to, in the order a
+serial loop would have added them. The rows are ordered by partner (rows rstart[j]..rstart[j+1] are the pairs
+(i, j), i increasing; pair k writes row rslot[k]), so j reads its rows in one sweep. Forces are therefore
+bitwise the same on any number of threads, and the same as a serial half-list loop (engine/kernels.py).
 
 A rebuild (1) wraps periodic coordinates, (2) removes particles that left a fixed box, (3) re-orders the
 particles by cell so that neighbors are close in memory, (4) builds the list and its reverse index, and (5)
