@@ -23,7 +23,7 @@ import os
 import re
 import sys
 from collections import namedtuple
-from dataclasses import field, make_dataclass
+from dataclasses import field, make_dataclass, replace
 
 import numpy as np
 from numba.core.dispatcher import Dispatcher
@@ -194,15 +194,19 @@ tiz = 0.0
 #: contact history is reset as soon as a contact opens (physically clean; see engine/README.md)
 RESET_HISTORY = "for h in range(${width}):\n    ${target} = 0.0\n"
 
-#: pass 1 of a force evaluation: each listed pair once, by its first particle i (i < j). On several threads
-#: i's own sum goes into f[i] and torque[i] (only when i has a contact: `own`) and what j takes stays in the
-#: pair's row of `reaction`, marked by its byte in `touch` (a pair not in contact writes only that byte, 0; pass 2
-#: skips its row, which adding did not change: x - (+0.0) and y + (+0.0) leave every sum bitwise as it is, since
-#: sums that start at +0.0 or m g never become -0.0): every iteration writes only rows of its own particle and
-#: its own pairs, no two threads write the same memory. On one thread i adds to
-#: j directly, in the same order (the former serial loop).
+#: pass 1 of a force evaluation: each listed pair once, by its first particle i (i < j), i adding what j takes
+#: straight to f[j] and torque[j] and its own sum to f[i] and torque[i] once its row ended (the serial loop).
+#: On several threads each thread runs that serial loop over its share (shares: equal runs of whole blocks,
+#: engine/neighbor.py share_start); a particle j whose pairs (q, j) all lie in its own share gets its sums
+#: exactly as on one thread. Only the band (engine/neighbor.py boundary_band: j listed by some q of an earlier
+#: share) is different: what j takes stays in the pair's row of `reaction`, marked by its byte in `touch` (a
+#: pair not in contact writes only that byte, 0; pass 2 skips its row, which adding did not change: x - (+0.0)
+#: and y + (+0.0) leave every sum bitwise as it is, since sums that start at +0.0 or m g never become -0.0),
+#: and f[j] (set to +0.0 by start_band) gets only j's own sum; pass 2 adds gravity, the rows in increasing q
+#: and the own sum, the serial order. No two threads write the same memory: a thread writes the forces of its
+#: own share's particles and the rows of its own pairs.
 #:
-#: The pairs are taken a block of PAIR_BLOCK particles at a time (the unit of work of a thread), and the
+#: The pairs are taken a block of PAIR_BLOCK particles at a time (a thread's share is a run of blocks), and the
 #: block's list entries CONTACT_CHUNK at a time, in three sweeps. (1) gather: the entries in contact, with what
 #: their force reads (distance vector, radii, masses, relative velocity, spins, the type pair's parameters,
 #: history) into the columns of `cin`; the others get their history reset. (2) contact: the force of every
@@ -225,84 +229,85 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
     rslot = nbr.rslot
     reaction = nbr.reaction
     pair_touch = nbr.touch
-    pair_own = nbr.own
+    ${band_head}
     nblocks = block_count(n, ${block})
-    for blk in prange(nblocks):
-        b = blk * n // nblocks
-        e = (blk + 1) * n // nblocks
+    shares = ${shares}
+    for t in prange(shares):
         cin = np.empty((${nin}, ${chunk}))
         cout = np.empty((${nout}, ${chunk}))
         ck = np.empty(${chunk}, dtype=np.int64)
         cj = np.empty(${chunk}, dtype=np.int64)
         ci = np.empty(${chunk}, dtype=np.int64)
         ${far_alloc}
-        gi = b
-        row_end = nbr_start[b + 1]
-        cur = b
-        mine = False
-        ${zero_sums}
-        for c0 in range(nbr_start[b], nbr_start[e], ${chunk}):
-            m = 0
-            ${far_start}
-            i = gi  # the sweep (2) before left other values in ri, mi, ...
-            ${gather_head}
-            ${body_i}
-            for k in range(c0, min(c0 + ${chunk}, nbr_start[e])):
-                if k >= row_end:
-                    gi += 1
-                    while nbr_start[gi + 1] <= k:
+        for blk in range(t * (nblocks // shares), (t + 1) * (nblocks // shares)):
+            b = blk * n // nblocks
+            e = (blk + 1) * n // nblocks
+            gi = b
+            row_end = nbr_start[b + 1]
+            cur = b
+            mine = False
+            ${zero_sums}
+            for c0 in range(nbr_start[b], nbr_start[e], ${chunk}):
+                m = 0
+                ${far_start}
+                i = gi  # the sweep (2) before left other values in ri, mi, ...
+                ${gather_head}
+                ${body_i}
+                for k in range(c0, min(c0 + ${chunk}, nbr_start[e])):
+                    if k >= row_end:
                         gi += 1
-                    row_end = nbr_start[gi + 1]
-                    i = gi
-                    ${gather_head}
-                    ${body_i}
-                j = nbr_j[k]
-                dx = xi0 - x[j, 0]
-                dy = xi1 - x[j, 1]
-                dz = xi2 - x[j, 2]
-                ${periodic_image}
-                rsq = dx * dx + dy * dy + dz * dz
-                rj = radius[j]
-                radsum = ri + rj
-                ${row}
-                ${same_body}
-                ck[m] = k
-                cj[m] = j
-                ci[m] = gi
-                cin[0, m] = dx
-                cin[1, m] = dy
-                cin[2, m] = dz
-                cin[3, m] = rsq
-                apart = rsq >= radsum * radsum
-                ${apart}
-                m += not apart
-            ${far}
-            for cq in range(m):
-                i = ci[cq]
-                j = cj[cq]
-                k = ck[cq]
-                ${gather}
-            for cq in range(m):
-                ${load}
-                r = sqrt(rsq)
-                enx = dx / r
-                eny = dy / r
-                enz = dz / r
-                radsum = ri + rj
-                d = radsum - r
-                meff = mi * mj / (mi + mj)
-                reff = ri * rj / radsum
-                vn = vrx * enx + vry * eny + vrz * enz
-                ${contact}
-                ${store}
-            for cq in range(m):
-                owner = ci[cq]
-                ${flush}
-                k = ck[cq]
-                j = cj[cq]
-                ${row}
-                ${sums}
-        ${flush_end}
+                        while nbr_start[gi + 1] <= k:
+                            gi += 1
+                        row_end = nbr_start[gi + 1]
+                        i = gi
+                        ${gather_head}
+                        ${body_i}
+                    j = nbr_j[k]
+                    dx = xi0 - x[j, 0]
+                    dy = xi1 - x[j, 1]
+                    dz = xi2 - x[j, 2]
+                    ${periodic_image}
+                    rsq = dx * dx + dy * dy + dz * dz
+                    rj = radius[j]
+                    radsum = ri + rj
+                    ${row}
+                    ${same_body}
+                    ck[m] = k
+                    cj[m] = j
+                    ci[m] = gi
+                    cin[0, m] = dx
+                    cin[1, m] = dy
+                    cin[2, m] = dz
+                    cin[3, m] = rsq
+                    apart = rsq >= radsum * radsum
+                    ${apart}
+                    m += not apart
+                ${far}
+                for cq in range(m):
+                    i = ci[cq]
+                    j = cj[cq]
+                    k = ck[cq]
+                    ${gather}
+                for cq in range(m):
+                    ${load}
+                    r = sqrt(rsq)
+                    enx = dx / r
+                    eny = dy / r
+                    enz = dz / r
+                    radsum = ri + rj
+                    d = radsum - r
+                    meff = mi * mj / (mi + mj)
+                    reff = ri * rj / radsum
+                    vn = vrx * enx + vry * eny + vrz * enz
+                    ${contact}
+                    ${store}
+                for cq in range(m):
+                    owner = ci[cq]
+                    ${flush}
+                    k = ck[cq]
+                    j = cj[cq]
+                    ${sums}
+            ${flush_end}
 '''
 #: the listed pairs of a sweep found apart (cfar[:mf]): contact history reset - only where it is not zero
 #: already (a test of its bits: a read, where a store would fetch and write back every pair's row), row not
@@ -320,30 +325,11 @@ if ${bits}:
     for h in range(${width}):
         pair_hist[k, h] = 0.0
 """
-#: the end of particle cur's pairs (the next contact's owner, or the end of the block e): its own sum is stored
-#: only when it had a contact as i (mine). Several threads: assigned to f and torque, and own[i] tells pass 2
-#: whether to read them (GATHER: a particle without reads + 0.0, what the zero sum gave); one thread: added -
-#: adding +0.0 sums would change nothing but -0.0, and pass 2 reads f + 0.0 (READ_SUMS)
-FLUSH = {True: ("""\
-while cur < owner:
-    i = cur
-    if mine:
-        ${own_sum}
-        ${zero_sums}
-    pair_own[i] = mine
-    mine = False
-    cur += 1
-mine = True
-""", """\
-while cur < e:
-    i = cur
-    if mine:
-        ${own_sum}
-        ${zero_sums}
-    pair_own[i] = mine
-    mine = False
-    cur += 1
-"""), False: ("""\
+#: the end of particle cur's pairs (the next contact's owner, or the end of the block e): its own sum is added
+#: only when it had a contact as i (mine) - adding +0.0 sums would change nothing but -0.0, and the particle pass
+#: reads f + 0.0 (READ_SUMS). A band particle's force starts at +0.0 (engine/neighbor.py start_band): f holds its
+#: own sum alone, added to gravity and the reaction rows by the particle pass (GATHER)
+FLUSH = ("""\
 if cur < owner:
     if mine:
         i = cur
@@ -355,7 +341,7 @@ mine = True
 if mine:
     i = cur
     ${own_sum}
-""")}
+""")
 #: particles per block of the pair loop (a thread's unit of work; the results do not depend on it)
 PAIR_BLOCK = 512
 #: list entries per sweep of a block: the length of the columns (about 40 doubles per entry: 330 kB, in L2). Not a
@@ -464,10 +450,9 @@ READ_TOTALS = ("ftot0 = f[i, 0]\nftot1 = f[i, 1]\nftot2 = f[i, 2]\nttot0 = torqu
 #: but for -0.0 - exactly what adding a sum of +0.0 gave before (OWN_SUM, FLUSH)
 READ_SUMS = "".join(f"{line} + 0.0\n" for line in READ_TOTALS.splitlines())
 
-#: pass 2 of a force evaluation, per particle: on several threads gravity (F = m g, the first force), minus
-#: what the pairs (i, p) left for p in `reaction` - added in increasing i, exactly the order of the serial
-#: loop - plus p's own pair sum; then walls, the second half kick and (but at a chunk's last step) the next
-#: step's first half kick and drift. Returns (particles beyond skin/2, first non-finite position or n).
+#: pass 2 of a force evaluation, per particle: its force and torque sums (READ_SUMS; on several threads a
+#: particle of the band gathers them, GATHER); then walls, the second half kick and (but at a chunk's last step)
+#: the next step's first half kick and drift. Returns (particles beyond skin/2, first non-finite position or n).
 PARTICLE_PASS = '''\
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
 def particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, kick, drift, record, wall_part, wall_tpart,
@@ -482,7 +467,7 @@ def particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, kick, drift
     rstart = nbr.rstart
     reaction = nbr.reaction
     pair_touch = nbr.touch
-    pair_own = nbr.own
+    band = nbr.band
     half_dt = 0.5 * dt
     need = 0
     bad = n
@@ -508,10 +493,12 @@ def drift_pass(s, n, dt, half_skin_sq, gravity):
     return need, bad
 '''
 
-#: several threads: gravity (F = m g, the first force), minus what the pairs (i, p) in contact left for p, in
-#: increasing i, plus p's own pair sum (pass 1 put it into f[p] and torque[p]). A row whose pair does not touch
-#: is not read (its line of memory not fetched): the pair pass no longer writes zeros there, and subtracting
-#: +0.0 from a force or adding it to a torque sum (which starts at +0.0, so is never -0.0) left it as it was
+#: several threads, a particle p of the band: gravity (F = m g, the first force), minus what the pairs (i, p) in
+#: contact left for p, in increasing i, plus p's own pair sum (pass 1 added it to f[p] and torque[p], which
+#: start_band set to +0.0: +0.0 when p had no contact as i, what adding the zero sum gave). A row whose pair
+#: does not touch is not read (its line of memory not fetched): the pair pass does not write zeros there, and
+#: subtracting +0.0 from a force or adding it to a torque sum (which starts at +0.0, so is never -0.0) left it
+#: as it was
 GATHER = """\
 ${clear}
 gtx = 0.0
@@ -523,27 +510,24 @@ for q in range(rstart[i], rstart[i + 1]):
         gfy -= reaction[q, 1]
         gfz -= reaction[q, 2]
         ${gather_torque}
-if pair_own[i]:
-    ftot0 = gfx + f[i, 0]
-    ftot1 = gfy + f[i, 1]
-    ftot2 = gfz + f[i, 2]
-    ttot0 = gtx + torque[i, 0]
-    ttot1 = gty + torque[i, 1]
-    ttot2 = gtz + torque[i, 2]
-else:  # no contact as i: its own sum is +0.0, not stored (FLUSH)
-    ftot0 = gfx + 0.0
-    ftot1 = gfy + 0.0
-    ftot2 = gfz + 0.0
-    ttot0 = gtx + 0.0
-    ttot1 = gty + 0.0
-    ttot2 = gtz + 0.0
+ftot0 = gfx + f[i, 0]
+ftot1 = gfy + f[i, 1]
+ftot2 = gfz + f[i, 2]
+ttot0 = gtx + torque[i, 0]
+ttot1 = gty + torque[i, 1]
+ttot2 = gtz + torque[i, 2]
 """
-#: the end of particle i's pairs: its own sum, stored (several threads) or added to what the pairs (i', i),
-#: i' < i, already subtracted from f[i] (one thread)
-OWN_SUM = {True: "f[i, 0] = fix\nf[i, 1] = fiy\nf[i, 2] = fiz\ntorque[i, 0] = tix\ntorque[i, 1] = tiy\ntorque[i, 2] = tiz\n",
-           False: "f[i, 0] += fix\nf[i, 1] += fiy\nf[i, 2] += fiz\ntorque[i, 0] += tix\ntorque[i, 1] += tiy\n"
-                  "torque[i, 2] += tiz\n"}
-#: one thread: forces start at gravity (F = m g) before the pairs add to them
+#: several threads: a band particle gathers (GATHER), any other reads its sums as on one thread
+BAND_GATHER = """\
+if band[i]:
+    ${gather}
+else:
+    ${read_sums}
+"""
+#: the end of particle i's pairs: its own sum added to what the pairs (i', i), i' < i, already subtracted from f[i]
+OWN_SUM = ("f[i, 0] += fix\nf[i, 1] += fiy\nf[i, 2] += fiz\ntorque[i, 0] += tix\ntorque[i, 1] += tiy\n"
+           "torque[i, 2] += tiz\n")
+#: forces start at gravity (F = m g) before the pairs add to them (several threads: the band at zero, see FLUSH)
 CLEAR_FORCES = '''\
 @njit(cache=True, error_model="numpy")
 def clear_forces(s, n, gravity):
@@ -576,7 +560,8 @@ def setup(s, n, nbr, mnbr, walls, pp, c, step, lost${bodies}${sq}):
     box = hi - lo
     n, nbr = rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer)
     ${wall_setup}
-    ${clear_forces}
+    clear_forces(s, n, gravity)
+    ${start_band}
     pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies})
     record = True
     wall_part = np.zeros((n, ${nwalls}, 3))
@@ -631,6 +616,7 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost${bodies
             ${wall_rebuild}
             rebuilds += 1
         t2 = now()
+        ${start_band}
         pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies})
         t3 = now()
         record = k_step == nsteps - 1
@@ -672,7 +658,7 @@ from numba import prange
 
 from engine.clock import now
 from engine.jit import njit
-from engine.neighbor import PARALLEL, block_count, rebuild
+from engine.neighbor import PARALLEL, block_count, rebuild, start_band
 ${imports}
 
 
@@ -752,6 +738,38 @@ def _gravity_force(c: Combination) -> tuple:
     return "0.0", "0.0", "0.0"
 
 
+#: several threads, the partner's share of a contact: a particle of the band (engine/neighbor.py boundary_band)
+#: takes it through the pair's reaction row, marked touching; any other particle straight into its force and
+#: torque, as on one thread (its thread owns every pair that lists it)
+BAND_SUMS = """\
+${own}
+if band[j]:
+    q = rslot[k]
+    pair_touch[q] = 1
+    ${rows}
+else:
+    ${direct}
+"""
+
+
+def _band_sums(c: Combination, sums: str, parameters: int, width: int) -> str:
+    """The sums sweep's code on several threads: i's own sums, then j's share by BAND_SUMS. sums is the sweep's
+    code with reaction rows (the contact code of c); the direct lines come from the one-thread contact code,
+    whose columns of cout are the same."""
+    contact, _, _ = split_contact(contact_code(c, "pair"), parameters, width)
+    serial_contact, serial_sums, _ = split_contact(contact_code(replace(c, parallel=False), "pair"), parameters,
+                                                   width)
+    if contact != serial_contact:
+        raise ValueError("the one-thread and several-thread contact codes differ beyond the partner's share")
+    def partner(line):
+        return line.startswith(("f[j", "torque[j", "reaction[q"))
+    own = [line for line in sums.splitlines() if line and not partner(line)]
+    if own != [line for line in serial_sums.splitlines() if line and not partner(line)]:
+        raise ValueError("the one-thread and several-thread own sums differ")
+    return render(BAND_SUMS, own="\n".join(own), rows="\n".join(line for line in sums.splitlines() if partner(line)),
+                  direct="\n".join(line for line in serial_sums.splitlines() if partner(line)))
+
+
 def _pair_forces(c: Combination) -> str:
     periodic = "".join(f"d{name} -= box[{a}] * np.rint(d{name} / box[{a}])\n"
                        for a, name in enumerate("xyz") if c.periodic[a])
@@ -771,9 +789,9 @@ def _pair_forces(c: Combination) -> str:
     first_hist = len(inputs) - width
     store = "".join(f"cin[{first_hist + h}, cq] = h{h}\n" for h in range(width))
     contact, sums, nout = split_contact(contact_code(c, "pair"), nparam, width)
-    sums = "".join(f"pair_hist[k, {h}] = cin[{first_hist + h}, cq]\n" for h in range(width)) + sums
     if rows:
-        sums = "pair_touch[q] = 1\n" + sums
+        sums = _band_sums(c, sums, nparam, width)
+    sums = "".join(f"pair_hist[k, {h}] = cin[{first_hist + h}, cq]\n" for h in range(width)) + sums
     head = PARTICLE_HEAD[:PARTICLE_HEAD.index("fix = 0.0")]
     zero_sums = PARTICLE_HEAD[PARTICLE_HEAD.index("fix = 0.0"):]
     # the pairs found apart: their history reset and (several threads) their reaction rows zeroed, after the
@@ -790,8 +808,10 @@ def _pair_forces(c: Combination) -> str:
                   zero_sums=zero_sums,
                   nin=str(len(inputs)), nout=str(max(nout, 1)), gather=gather, load=load, store=store, sums=sums,
                   periodic_image=periodic, row=row, contact=contact,
-                  flush=render(FLUSH[rows][0], own_sum=OWN_SUM[rows], zero_sums=zero_sums),
-                  flush_end=render(FLUSH[rows][1], own_sum=OWN_SUM[rows], zero_sums=zero_sums),
+                  flush=render(FLUSH[0], own_sum=OWN_SUM, zero_sums=zero_sums),
+                  flush_end=render(FLUSH[1], own_sum=OWN_SUM, zero_sums=zero_sums),
+                  band_head="band = nbr.band" if rows else None,
+                  shares="nbr.shares[0]" if rows else "1",
                   bodies=", bodies" if c.clumps else "", **far, **body_slots)
 
 
@@ -808,12 +828,11 @@ def _particle_pass(c: Combination, parts: list) -> str:
     if c.parallel:
         gather_torque = "".join(f"gtx += reaction[q, {o}]\ngty += reaction[q, {o + 1}]\ngtz += reaction[q, {o + 2}]\n"
                                 for name, o in c.reaction_columns().items() if name != "force")
-        gather = render(GATHER, clear="".join(f"gf{a} = {g}\n" for a, g in zip("xyz", gravity_force)),
-                        gather_torque=gather_torque)
-    # several threads: nothing - the pair pass assigns f and torque anew and no one reads the totals before
-    # (a chunk's last step stores them for Python: store_totals), so 48 B per particle are not written back;
-    # one thread: gravity, zero
-    clear = "" if c.parallel else "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)) + \
+        gather = render(BAND_GATHER, read_sums=READ_SUMS, gather=render(
+            GATHER, clear="".join(f"gf{a} = {g}\n" for a, g in zip("xyz", gravity_force)), gather_torque=gather_torque))
+    # gravity, zero (several threads: the band's are set to zero before the pair pass, engine/neighbor.py
+    # start_band)
+    clear = "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)) + \
         "torque[i, 0] = 0.0\ntorque[i, 1] = 0.0\ntorque[i, 2] = 0.0\n"
     if c.clumps:  # a member's totals stay for its body's pass (engine/clumps.py)
         clear = clumps.member_clear(clear, STORE_TOTALS)
@@ -830,7 +849,7 @@ def _step_loop(c: Combination, parts: list, template: str) -> str:
     return render(template, constants=CONSTANTS, move_walls=joined("move"), wall_travel=joined("travel"),
                   wall_setup=joined("setup"), wall_start=joined("at_start"), wall_rebuild=joined("after_rebuild"),
                   nwalls="walls.force.shape[0]" if c.has_walls else "0",
-                  clear_forces="" if c.parallel else "clear_forces(s, n, gravity)",
+                  start_band=f"start_band(nbr, n, {PAIR_BLOCK}, s.f, s.torque)" if c.parallel else None,
                   wall_force_sum=WALL_FORCE_SUM if c.has_walls else "",
                   # clumps (engine/clumps.py): the bodies' pass follows the particles'; none in a scene of spheres
                   bodies=", bodies" if c.clumps else "", body_setup=clumps.BODY_SETUP if c.clumps else None,
@@ -847,7 +866,7 @@ def generate_source(c: Combination) -> str:
     parts = [shape.kernel(c) for shape in SHAPES.values()]
     pair_forces, particle_pass = _pair_forces(c), _particle_pass(c, parts)
     setup, step_loop = _step_loop(c, parts, SETUP), _step_loop(c, parts, STEP_LOOP)
-    clear_forces = "" if c.parallel else render(CLEAR_FORCES, clear="".join(
+    clear_forces = render(CLEAR_FORCES, clear="".join(
         f"f[i, {a}] = {g}\n" for a, g in enumerate(_gravity_force(c))))
     body = pair_forces + particle_pass + setup + step_loop
     called = sorted({fn for law in c.laws() for fn in law.functions}, key=lambda fn: fn.__name__) + [slip_velocity]

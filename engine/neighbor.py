@@ -1,12 +1,13 @@
 """Cell-list neighbor lists with a skin, rebuilt when a particle has moved more than skin/2.
 
 The list is a *half* list in CSR form: pair k = (i, j[k]) for start[i] <= k < start[i+1], always with i < j and
-j increasing, so each pair is evaluated once (by i). So that no two threads ever write the same memory, i does
-not add the reaction to j's force itself: it leaves it in the pair's row of `reaction`, and j collects the rows
-of the pairs it belongs to, in the order a serial loop would have added them. The rows are ordered by partner
-(rows rstart[j]..rstart[j+1] are the pairs (i, j), i increasing; pair k writes row rslot[k]), so j reads its
-rows in one sweep. Forces are therefore bitwise the same on any number of
-threads, and the same as a serial half-list loop (engine/kernels.py).
+j increasing, so each pair is evaluated once (by i), which adds the reaction to j's force. On several threads
+each thread takes one share of the particles (`share_start`); a particle j listed by a particle of an earlier
+share (the boundary band, `boundary_band`) would get sums from two threads, so for it alone i leaves the
+reaction in the pair's row of `reaction`, and j collects the rows of the pairs it belongs to, in the order a
+serial loop would have added them. The rows are ordered by partner (rows rstart[j]..rstart[j+1] are the pairs
+(i, j), i increasing; pair k writes row rslot[k]), so j reads its rows in one sweep. Forces are therefore
+bitwise the same on any number of threads, and the same as a serial half-list loop (engine/kernels.py).
 
 A rebuild (1) wraps periodic coordinates, (2) removes particles that left a fixed box, (3) re-orders the
 particles by cell so that neighbors are close in memory, (4) builds the list and its reverse index, and (5)
@@ -37,8 +38,12 @@ PARALLEL = dict(prange=True, numpy=False, reduction=False, setitem=False, stenci
 #: n+1) belong to the pairs (i, p), i increasing; rslot[k] is the row of pair k; touch (pairs, uint8, in the
 #: rows' order): 1 when the row's pair is in contact at this step (its reaction row holds its share), 0 when not
 #: (its row is not written: it holds what an earlier step left); own (n, uint8): 1 when particle i had a contact
-#: as the first of a pair at this step (several threads: its own sum is in f[i] and torque[i]), 0 when not
-NeighborList = namedtuple("NeighborList", ["start", "j", "hist", "rstart", "rslot", "reaction", "touch", "own"])
+#: as the first of a pair at this step, 0 when not (not used by the kernels);
+#: band (n, uint8): 1 for the particles of the boundary band (`boundary_band`), members (n, int64): their indices
+#: in increasing order, the first shares[1] entries; shares (2, int64): the share count the band was computed
+#: for (0: not yet, after a rebuild or a change of the particles) and the band's size
+NeighborList = namedtuple("NeighborList", ["start", "j", "hist", "rstart", "rslot", "reaction", "touch", "own",
+                                           "band", "members", "shares"])
 #: particles removed for leaving a fixed axis' range: ids, steps, and count[0] entries used
 LostParticles = namedtuple("LostParticles", ["ids", "steps", "count"])
 
@@ -46,17 +51,22 @@ LostParticles = namedtuple("LostParticles", ["ids", "steps", "count"])
 MAX_CELLS_PER_PARTICLE = 8
 
 
+def stale_band(n: int) -> dict:
+    """The band fields of a list of n particles, to be computed before the next force evaluation."""
+    return dict(band=np.zeros(n, np.uint8), members=np.zeros(n, np.int64), shares=np.zeros(2, np.int64))
+
+
 def empty_list(history: int = 0, reaction: int = 3) -> NeighborList:
     return NeighborList(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros((0, history)),
                         np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, reaction)),
-                        np.zeros(0, dtype=np.uint8), np.zeros(0, dtype=np.uint8))
+                        np.zeros(0, dtype=np.uint8), np.zeros(0, dtype=np.uint8), **stale_band(0))
 
 
 def from_half_list(start, j, hist, n: int, reaction: int) -> NeighborList:
     """The full record of a half list (as restart files store it) for n particles."""
     rstart, rslot = reverse_index(start, j, n)
     return NeighborList(start, j, hist, rstart, rslot, np.zeros((len(j), reaction)), np.zeros(len(j), np.uint8),
-                        np.zeros(n, np.uint8))
+                        np.zeros(n, np.uint8), **stale_band(n))
 
 
 def lost_record(capacity: int) -> LostParticles:
@@ -85,6 +95,55 @@ def block_count(n, size):
     threads = _threads()
     blocks = (n + size - 1) // size
     return (blocks + threads - 1) // threads * threads
+
+
+@njit(cache=True, error_model="numpy")
+def share_start(t, shares, n, blocks):
+    """First particle of thread t's share of a pair pass over n particles in `blocks` blocks (block_count, a
+    multiple of shares): the shares are equal runs of whole blocks, block k being particles k n // blocks ..."""
+    return (t * (blocks // shares)) * n // blocks
+
+
+@njit(cache=True, error_model="numpy")
+def boundary_band(start, j, n, shares, blocks, band, members):
+    """Mark the band: the particles p listed by a pair (q, p) whose first particle q lies in an earlier share
+    than p's (share_start), into band (1, else 0) and members (their indices, increasing). Returns their
+    number. Only these particles take their partners' shares through reaction rows on several threads
+    (engine/kernels.py PAIR_FORCES); every other particle's pairs are all in its own thread's share. A row's
+    partners increase, so only its tail is read: the entries at or past the end of the share."""
+    for p in range(n):
+        band[p] = 0
+    for t in range(shares):
+        end = share_start(t + 1, shares, n, blocks)
+        for q in range(share_start(t, shares, n, blocks), end):
+            k = start[q + 1] - 1
+            while k >= start[q] and j[k] >= end:
+                band[j[k]] = 1
+                k -= 1
+    count = 0
+    for p in range(n):
+        if band[p]:
+            members[count] = p
+            count += 1
+    return count
+
+
+@njit(cache=True, error_model="numpy")
+def start_band(nbr, n, size, f, torque):
+    """Before a pair pass over n particles in blocks of `size` (engine/kernels.py PAIR_FORCES) on the current
+    threads: the band (computed again after a rebuild or a change of the thread count), and the forces and
+    torques of its particles set to +0.0 - there the pair pass stores only the particle's own sum (added to
+    +0.0: the same bytes), the particle pass adds gravity and the reaction rows in the serial order."""
+    shares = _threads()
+    blocks = block_count(n, size)
+    if nbr.shares[0] != shares:
+        nbr.shares[1] = boundary_band(nbr.start, nbr.j, n, shares, blocks, nbr.band, nbr.members)
+        nbr.shares[0] = shares
+    for m in range(nbr.shares[1]):
+        p = nbr.members[m]
+        for a in range(3):
+            f[p, a] = 0.0
+            torque[p, a] = 0.0
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -443,7 +502,8 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer):
     rstart, rslot = reverse_index(new_start, new_j, nk)
     _copy_positions(x, s.x_build, nk)
     return nk, NeighborList(new_start, new_j, new_hist, rstart, rslot, np.empty((m, nbr.reaction.shape[1])),
-                            np.zeros(m, dtype=np.uint8), np.zeros(nk, dtype=np.uint8))
+                            np.zeros(m, dtype=np.uint8), np.zeros(nk, dtype=np.uint8), np.zeros(nk, np.uint8),
+                            np.zeros(nk, np.int64), np.zeros(2, np.int64))
 
 
 @njit(cache=True, error_model="numpy")

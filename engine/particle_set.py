@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import state as particle_state
-from .neighbor import reverse_index
+from .neighbor import reverse_index, stale_band
 
 #: x_build of an inserted particle: beyond any domain, so that the next drift pass finds it "moved" by more
 #: than skin/2 and rebuilds; finite (its square, ~1e300 per axis, too) so that restart files stay checkable
@@ -56,7 +56,8 @@ def insert(sim, **arrays):
         sim.nbr = nbr._replace(start=np.concatenate([nbr.start, np.full(count, nbr.start[-1], dtype=np.int64)]),
                                rstart=np.concatenate([nbr.rstart, np.full(count, nbr.rstart[-1],
                                                                             dtype=np.int64)]),
-                               own=np.concatenate([nbr.own, np.zeros(count, dtype=np.uint8)]))
+                               own=np.concatenate([nbr.own, np.zeros(count, dtype=np.uint8)]),
+                               **stale_band(n_old + count))
     mesh = sim.mesh_nbr
     if len(mesh.start) == n_old + 1:  # the new particles touch no triangle until the rebuild lists theirs
         sim.mesh_nbr = mesh._replace(start=np.concatenate([mesh.start, np.full(count, mesh.start[-1],
@@ -113,4 +114,4 @@ def _compact_list(nbr, keep: np.ndarray):
         reaction[rslot] = nbr.reaction[nbr.rslot[pair_kept]]
         touch[rslot] = nbr.touch[nbr.rslot[pair_kept]]
     return nbr._replace(start=new_start, j=new_j, hist=np.ascontiguousarray(hist), rstart=rstart, rslot=rslot,
-                        reaction=reaction, touch=touch, own=nbr.own[keep])
+                        reaction=reaction, touch=touch, own=nbr.own[keep], **stale_band(len(per_owner)))

@@ -15,7 +15,7 @@ from . import state as particle_state
 from .errors import RunFailure
 from .kernels import Combination, Constants, build_kernel, parameter_table
 from .models import SUBMODELS, options
-from .neighbor import empty_list, lost_record
+from .neighbor import empty_list, lost_record, stale_band
 from .quantities import OVERLAP_WARN_RATIO
 from .script import Fields
 from .mesh import empty_mesh_list, mesh_rebuild
@@ -124,6 +124,8 @@ def fit_history(sim, combo: Combination):
         nbr = nbr._replace(touch=np.zeros(len(nbr.j), dtype=np.uint8))
     if len(nbr.own) != len(nbr.start) - 1:
         nbr = nbr._replace(own=np.zeros(len(nbr.start) - 1, dtype=np.uint8))
+    if len(nbr.band) != len(nbr.start) - 1:
+        nbr = nbr._replace(**stale_band(len(nbr.start) - 1))
     sim.nbr = nbr
     if sim.mesh_nbr.hist.shape[1] != width:  # another contact model: mesh contacts start without history
         sim.mesh_nbr = empty_mesh_list(0, width)

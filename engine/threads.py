@@ -1,7 +1,8 @@
 """How many threads the compiled loops use: ``-threads N``, else NUMBA_NUM_THREADS, else every core.
 
-Results do not depend on the count: every parallel loop writes only its own particle's rows (see
-engine/neighbor.py and engine/kernels.py), so 1 and 16 threads give the same bytes. Small scenes run on one
+Results do not depend on the count: every parallel loop writes only its own particles' rows and adds every
+sum in the serial order (see engine/neighbor.py and engine/kernels.py), so 1 and 16 threads give the same
+bytes. Small scenes run on one
 thread: waking other threads costs microseconds per loop, more than the loop itself below a few thousand
 particles. Threads only pay where cores are free: on a machine whose cores are all busy (other programs, or
 the harness running several engines at once) every parallel loop waits for its slowest thread, and one thread

@@ -79,7 +79,8 @@ def test_parameter_table_leaves_pairs_without_interaction_nan():
 
 def test_the_generated_loops_are_parallel_and_thread_safe_by_construction():
     """On several threads only the two force passes, the drift and (with planes) the plane bits are parallel
-    loops and no loop body writes another particle's force (the partner's share goes to its pair row)."""
+    loops, and the pair pass writes another particle's force only where that particle is not in the boundary
+    band (all its pairs are in the same thread's share); a band particle's share goes to its pair row."""
     combination = Combination(normal="hertz", tangential="history", rolling="cdt", planes=True, parallel=True)
     source = generate_source(combination)
     assert source.count("in prange(") == 4 and source.count("parallel=PARALLEL") == 4
@@ -90,32 +91,41 @@ def test_the_generated_loops_are_parallel_and_thread_safe_by_construction():
     assert "parallel=PARALLEL" not in serial and "reaction[q" not in serial
     mine, partner = re.findall(r"cout\[(\d+), cq\] = fx\n", serial)  # what i adds, what j takes
     assert f"fix += cout[{mine}, cq]" in serial and f"f[j, 0] -= cout[{partner}, cq]" in serial
-    assert "f[j" not in source and "torque[j" not in source
+    # the partner's share: the pair row for a band particle, else straight into its force, as on one thread
+    band = re.search(r"\n( +)if band\[j\]:\n(.*?)\n\1else:\n(.*?)\n\1[^ ]", source, re.DOTALL)
+    assert band and "f[j" not in band[2] and "reaction[q, 0] = cout[" in band[2]
+    assert f"f[j, 0] -= cout[{partner}, cq]" in band[3] and "reaction[q" not in band[3]
+    assert source.count("f[j, 0] -=") == 1 and source.count("torque[j, 0] +=") == 2
     assert re.search(r"cout\[(\d+), cq\] = crj \* tqx", source) and "reaction[q, 3] = cout[" in source
     assert "reaction[q, 6] = cout[" in source
     assert kernels.Constants._fields == ("dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin",
                                         "history_transfer")
 
 
-def test_on_several_threads_the_totals_are_written_only_where_they_are_read():
-    """The pair pass assigns every force anew on several threads: the particle pass writes a particle's total
-    force and torque only when Python reads them next (a chunk's last step, no drift) or a clump's body pass
-    does (a member); a drifting free sphere's are never written back. One thread clears them to m g, zero.
-    That the values Python reads stay the same is tests/engine/test_parallel.py (1 and 2 threads, bytes)."""
+def test_on_several_threads_forces_start_as_on_one_thread_but_the_band_at_zero():
+    """The drift starts the next evaluation (gravity, zero) on any number of threads (a clump member stores its
+    totals for its body instead); on several threads the step loop sets the band's forces to zero just before
+    the pair pass (engine/neighbor.py start_band), and the particle pass gathers only the band's pair rows.
+    That the values stay the same is tests/engine/test_parallel.py (1, 2 and 3 threads, bytes)."""
     combination = Combination(normal="hertz", tangential="history", planes=True, gravity=True, parallel=True)
 
     def integration(source):  # the particle pass's and the drift pass's integration (INTEGRATE)
         return re.findall(r"\n( +)if drift:\n(.*?)\n\1else:\n(.*?)\n\1v\[i, 0\] = v0", source, re.DOTALL)
 
-    passes = integration(generate_source(combination))
-    assert len(passes) == 2
-    for _, drift, last in passes:
-        assert "f[i, 0] = ftot0" not in drift and "torque[i, 2] =" not in drift
-        assert "f[i, 0] = ftot0" in last and "torque[i, 2] = ttot2" in last
+    for parallel in (True, False):
+        passes = integration(generate_source(dataclasses.replace(combination, parallel=parallel)))
+        assert len(passes) == 2
+        for _, drift, last in passes:
+            assert "f[i, 2] = mass[i] * gravity[2]" in drift and "torque[i, 0] = 0.0" in drift
+            assert "f[i, 0] = ftot0" in last and "torque[i, 2] = ttot2" in last
     for _, drift, _ in integration(generate_source(dataclasses.replace(combination, clumps=True))):
-        assert re.search(r"if inv_mass\[i\] == 0\.0:\n +f\[i, 0\] = ftot0", drift)
-    for _, drift, _ in integration(generate_source(dataclasses.replace(combination, parallel=False))):
-        assert "f[i, 2] = mass[i] * gravity[2]" in drift and "torque[i, 0] = 0.0" in drift
+        assert re.search(r"if inv_mass\[i\] != 0\.0:\n +f\[i, 0\] = mass", drift)
+        assert re.search(r"else:\n +f\[i, 0\] = ftot0", drift)
+    source = generate_source(combination)
+    step_loop = source[source.index("def run_steps"):]
+    assert re.search(r"start_band\(nbr, n, \d+, s\.f, s\.torque\)\n +pair_forces\(", step_loop)
+    assert re.search(r"if band\[i\]:\n +gfx = mass\[i\] \* gravity\[0\]", source)
+    assert "start_band(" not in generate_source(dataclasses.replace(combination, parallel=False))
 
 
 def test_a_new_kind_of_submodel_is_one_row_plus_its_law(tmp_path):
@@ -169,9 +179,13 @@ def test_a_new_kind_of_submodel_is_one_row_plus_its_law(tmp_path):
 def test_the_pair_pass_resets_exactly_the_pairs_apart():
     """The contact-finding sweep keeps the pairs in contact and the pairs apart without a branch (kernels.PAIR_FORCES):
     every pair apart - and only those - gets its history reset (to +0.0, also from -0.0) and, on several threads,
-    its row marked as not touching (`touch`, in the rows' order), its reaction row left unwritten."""
+    its row marked as not touching (`touch`, in the rows' order), its reaction row left unwritten. On several
+    threads only the pairs whose partner is in the boundary band write their reaction row; every other partner
+    takes its share in its force at once."""
+    import numba
+
     from engine import state as particle_state
-    from engine.neighbor import empty_list, lost_record, rebuild
+    from engine.neighbor import empty_list, lost_record, rebuild, start_band
 
     rng = np.random.default_rng(3)
     n = 2000  # several blocks of the pair pass and several column lengths of list entries
@@ -196,20 +210,25 @@ def test_the_pair_pass_resets_exactly_the_pairs_apart():
         nbr.hist[1::3, 1] = 0.0
         nbr.reaction[:] = 7.0
         pp = parameter_table(c, materials, inter, 1)
+        if parallel:
+            numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+            start_band(nbr, n, kernels.PAIR_BLOCK, s.f, s.torque)
         module.pair_forces(s, n, nbr, pp, 1e-5, 1.0, hi - lo)
         owner = np.repeat(np.arange(n), np.diff(nbr.start))
         d = np.linalg.norm(s.x[owner] - s.x[nbr.j], axis=1)
         apart = d >= radius[owner] + radius[nbr.j]
         assert 0 < apart.sum() < len(apart) and (~apart).sum() > 1032  # both kinds, more contacts than a column
         assert np.all(nbr.hist[apart].view(np.uint64) == 0) and np.all(nbr.hist[~apart] != 1e-6)
+        in_band = np.zeros(len(nbr.j), dtype=bool)
         if parallel:  # pair k's row is rslot[k]; the rows of pairs apart are marked, not written
+            in_band = nbr.band[nbr.j] == 1
+            assert (numba.config.NUMBA_NUM_THREADS == 1) == (not in_band.any())
             rows, touch = nbr.reaction[nbr.rslot], nbr.touch[nbr.rslot]
-            assert np.all(touch[apart] == 0) and np.all(touch[~apart] == 1)
-            assert np.all(rows[apart] == 7.0) and np.all(rows[~apart] != 7.0)
-        # a force on each particle in contact, none on the others (on several threads the partners' shares wait
-        # in the rows: a force on the first particle of each contact only)
+            assert np.all(touch[apart] == 0) and np.all(touch[~apart & in_band] == 1)
+            assert np.all(rows[apart | ~in_band] == 7.0) and np.all(rows[~apart & in_band] != 7.0)
+        # a force on each particle in contact, none on the others (on several threads the shares of the band's
+        # particles wait in the rows: a force on them only from their own pairs)
         touching = np.zeros(n, dtype=bool)
         touching[owner[~apart]] = True
-        if not parallel:
-            touching[nbr.j[~apart]] = True
+        touching[nbr.j[~apart & ~in_band]] = True
         assert np.all(np.any(s.f[touching] != 0.0, axis=1)) and np.all(s.f[~touching] == 0.0)

@@ -12,7 +12,7 @@ import pytest
 from conftest import domain, gravity, interaction, material, model, printer, read_csv, run, timestep
 from engine import particle_set
 from engine import state as particle_state
-from engine.neighbor import NeighborList, reverse_index
+from engine.neighbor import NeighborList, reverse_index, stale_band
 from engine.mesh import MeshList
 from test_insertion_stream import COLLISION, TRACK, region
 
@@ -107,7 +107,8 @@ class _Scene:
         reaction = np.empty((len(j), 3))
         reaction[rslot] = rng.random((len(j), 3))
         touch = rng.integers(0, 2, len(j)).astype(np.uint8)
-        self.nbr = NeighborList(start, j, hist, rstart, rslot, reaction, touch, np.zeros(n, dtype=np.uint8))
+        self.nbr = NeighborList(start, j, hist, rstart, rslot, reaction, touch, np.zeros(n, dtype=np.uint8),
+                                **stale_band(n))
         # particle-triangle contacts (engine/mesh.py): 0-3 triangles per particle, each with its history
         counts = rng.integers(0, 4, n)
         mesh_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)

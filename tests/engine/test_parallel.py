@@ -40,13 +40,16 @@ def engine(folder, *args, env=None):
     return engine_program(folder, SCENE, *args, env=env)
 
 
-def test_thread_count_never_changes_the_bytes(tmp_path):
+@pytest.mark.parametrize("threads", [2, 3])
+def test_thread_count_never_changes_the_bytes(tmp_path, threads):
+    # 3 threads: the boundary band of the pair pass (engine/neighbor.py boundary_band) has two borders, and a
+    # particle may be listed from two earlier shares
     one = engine(tmp_path / "one", env={"NUMBA_NUM_THREADS": "1"})
-    two = engine(tmp_path / "two", "-threads", "2")
+    two = engine(tmp_path / "two", "-threads", str(threads))
     assert one.returncode == 0, one.stderr
     assert two.returncode == 0, two.stderr
-    assert "; threads 1 (" in one.stdout and "; threads 2 (" in two.stdout
-    assert json.loads((tmp_path / "two" / "timing.json").read_text())["threads"] == 2
+    assert "; threads 1 (" in one.stdout and f"; threads {threads} (" in two.stdout
+    assert json.loads((tmp_path / "two" / "timing.json").read_text())["threads"] == threads
     files = ["thermo.csv", "track.csv", "post/particles_0.vtp", "post/particles_3000.vtp",
              "post/particles_6000.vtp"]
     for name in files:
@@ -199,4 +202,44 @@ def test_every_thread_gets_an_equal_share_of_the_pair_blocks():
             assert sizes.sum() == n and sizes.max() <= PAIR_BLOCK and sizes.max() - sizes.min() <= 1
             shares = sizes.reshape(count, -1).sum(axis=1)
             assert shares.max() - shares.min() <= blocks // count
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+
+
+@pytest.mark.parametrize("shares", [1, 2, 3, 5])
+def test_the_boundary_band_is_every_particle_listed_from_an_earlier_share(shares):
+    """The pair pass' band (engine/neighbor.py boundary_band): exactly the particles p of some listed pair (q, p)
+    whose q lies in an earlier thread's share than p, against a brute-force count over every pair; start_band
+    computes it for the current thread count, again after a change of it, and sets the band's forces to zero."""
+    import numba
+
+    from engine.kernels import PAIR_BLOCK
+    from engine.neighbor import block_count, boundary_band, empty_list, lost_record, rebuild, share_start, start_band
+
+    lo, hi = np.array([-0.1, -0.1, -0.1]), np.array([0.1, 0.1, 0.1])
+    n = 3000  # several blocks per share
+    s = random_state(np.random.default_rng(7), n, lo, hi)
+    kept, nbr = rebuild(s, n, empty_list(3), lo, hi, np.zeros(3, dtype=np.bool_), 0.003, 1, lost_record(n),
+                        -np.ones(3))
+    blocks = (n + PAIR_BLOCK - 1) // PAIR_BLOCK
+    blocks = (blocks + shares - 1) // shares * shares  # block_count on `shares` threads
+    first = np.array([share_start(t, shares, n, blocks) for t in range(shares + 1)])
+    assert first[0] == 0 and first[-1] == n and np.all(np.diff(first) > 0)
+    share_of = np.searchsorted(first, np.arange(n), side="right") - 1
+    owner = np.repeat(np.arange(n), np.diff(nbr.start))
+    expected = np.zeros(n, dtype=np.uint8)
+    expected[nbr.j[share_of[owner] < share_of[nbr.j]]] = 1
+    assert (shares == 1) == (expected.sum() == 0) and expected.sum() < n // 2
+    band, members = np.full(n, 9, np.uint8), np.full(n, -1, np.int64)
+    count = boundary_band(nbr.start, nbr.j, n, shares, blocks, band, members)
+    assert np.array_equal(band, expected) and np.array_equal(members[:count], np.flatnonzero(expected))
+    if shares > numba.config.NUMBA_NUM_THREADS:
+        return
+    numba.set_num_threads(shares)
+    assert block_count(n, PAIR_BLOCK) == blocks
+    s.f[:] = 1.0
+    s.torque[:] = 1.0
+    for _ in range(2):  # the second call keeps the band computed
+        start_band(nbr, n, PAIR_BLOCK, s.f, s.torque)
+        assert np.array_equal(nbr.band, expected) and list(nbr.shares) == [shares, count]
+        assert np.all((s.f == 0.0) == expected[:, None].astype(bool)) and np.all(s.torque[expected == 1] == 0.0)
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
