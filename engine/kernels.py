@@ -226,6 +226,7 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
     reaction = nbr.reaction
     pair_touch = nbr.touch
     pair_own = nbr.own
+    pair_live = nbr.live
     nblocks = block_count(n, ${block})
     for blk in prange(nblocks):
         b = blk * n // nblocks
@@ -314,11 +315,16 @@ for cq in range(mf):
     ${reset_history}
     ${zero_row}
 """
-#: a history row is +0.0 in every column exactly when its bits are all zero (-0.0 is reset too)
+#: a history row is +0.0 in every column exactly when its bits are all zero (-0.0 is reset too); a pair whose
+#: live byte is 0 (apart at the last evaluation, or carried as +0.0 by the rebuild: engine/neighbor.py) has such a
+#: row already, and its row is not read at all - in a loose packing most listed pairs are apart, and their
+#: history rows were most of the bytes this sweep streamed
 RESET_PAIR_HISTORY = """\
-if ${bits}:
-    for h in range(${width}):
-        pair_hist[k, h] = 0.0
+if pair_live[k]:
+    pair_live[k] = 0
+    if ${bits}:
+        for h in range(${width}):
+            pair_hist[k, h] = 0.0
 """
 #: the end of particle cur's pairs (the next contact's owner, or the end of the block e): its own sum is stored
 #: only when it had a contact as i (mine). Several threads: assigned to f and torque, and own[i] tells pass 2
@@ -772,6 +778,8 @@ def _pair_forces(c: Combination) -> str:
     store = "".join(f"cin[{first_hist + h}, cq] = h{h}\n" for h in range(width))
     contact, sums, nout = split_contact(contact_code(c, "pair"), nparam, width)
     sums = "".join(f"pair_hist[k, {h}] = cin[{first_hist + h}, cq]\n" for h in range(width)) + sums
+    if width:
+        sums = "pair_live[k] = 1\n" + sums
     if rows:
         sums = "pair_touch[q] = 1\n" + sums
     head = PARTICLE_HEAD[:PARTICLE_HEAD.index("fix = 0.0")]

@@ -38,7 +38,12 @@ PARALLEL = dict(prange=True, numpy=False, reduction=False, setitem=False, stenci
 #: rows' order): 1 when the row's pair is in contact at this step (its reaction row holds its share), 0 when not
 #: (its row is not written: it holds what an earlier step left); own (n, uint8): 1 when particle i had a contact
 #: as the first of a pair at this step (several threads: its own sum is in f[i] and torque[i]), 0 when not
-NeighborList = namedtuple("NeighborList", ["start", "j", "hist", "rstart", "rslot", "reaction", "touch", "own"])
+#: live, per listed pair in the list's order: 0 when the pair's history is +0.0 in every column (it was apart at
+#: the last force evaluation, or new), so that a pair found apart again need not read it; 1 when it may be nonzero
+#: (the pair touched, or the list came from elsewhere: restart, insertion). The pair pass sets it for each contact
+#: and clears it where it resets a history (engine/kernels.py FAR); the rebuild derives it from the carried rows.
+NeighborList = namedtuple("NeighborList", ["start", "j", "hist", "rstart", "rslot", "reaction", "touch", "own",
+                                           "live"])
 #: particles removed for leaving a fixed axis' range: ids, steps, and count[0] entries used
 LostParticles = namedtuple("LostParticles", ["ids", "steps", "count"])
 
@@ -49,14 +54,15 @@ MAX_CELLS_PER_PARTICLE = 8
 def empty_list(history: int = 0, reaction: int = 3) -> NeighborList:
     return NeighborList(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros((0, history)),
                         np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, reaction)),
-                        np.zeros(0, dtype=np.uint8), np.zeros(0, dtype=np.uint8))
+                        np.zeros(0, dtype=np.uint8), np.zeros(0, dtype=np.uint8), np.zeros(0, dtype=np.uint8))
 
 
 def from_half_list(start, j, hist, n: int, reaction: int) -> NeighborList:
-    """The full record of a half list (as restart files store it) for n particles."""
+    """The full record of a half list (as restart files store it) for n particles; every pair's history is
+    tested at its first evaluation (live 1)."""
     rstart, rslot = reverse_index(start, j, n)
     return NeighborList(start, j, hist, rstart, rslot, np.zeros((len(j), reaction)), np.zeros(len(j), np.uint8),
-                        np.zeros(n, np.uint8))
+                        np.zeros(n, np.uint8), np.ones(len(j), np.uint8))
 
 
 def lost_record(capacity: int) -> LostParticles:
@@ -270,9 +276,10 @@ def _compact(found, slot, start, new_j):
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _carry_history(order, old, new_start, new_j, new_hist, transfer):
+def _carry_history(order, old, new_start, new_j, new_hist, new_live, transfer):
     """Each new pair takes the history of the same pair in the old list (times transfer, per column, when i and
-    j swapped roles), a new pair zeros.
+    j swapped roles), a new pair zeros; new_live[k] is 1 exactly when the row's bits are not all zero (a carried
+    +0.0 times a negative transfer is -0.0, which the pair pass must still reset).
 
     New pair (p, b) is old pair (order[p], order[b]): it is found in the old row of the smaller old index (a
     binary search in a row of a few entries); with order[b] the owner there, i and j swapped roles. Every new
@@ -305,6 +312,10 @@ def _carry_history(order, old, new_start, new_j, new_hist, transfer):
             else:
                 for h in range(width):
                     new_hist[k, h] = old.hist[pos, h]
+            live = 0
+            for h in range(width):
+                live |= new_hist[k, h] != 0.0 or np.signbit(new_hist[k, h])
+            new_live[k] = live
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
@@ -438,12 +449,13 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer):
     m = new_start[nk]
     width = nbr.hist.shape[1]
     new_hist = np.empty((m if width > 0 else 0, width))
+    new_live = np.zeros(m, dtype=np.uint8)
     if width > 0:
-        _carry_history(order, nbr, new_start, new_j, new_hist, transfer)
+        _carry_history(order, nbr, new_start, new_j, new_hist, new_live, transfer)
     rstart, rslot = reverse_index(new_start, new_j, nk)
     _copy_positions(x, s.x_build, nk)
     return nk, NeighborList(new_start, new_j, new_hist, rstart, rslot, np.empty((m, nbr.reaction.shape[1])),
-                            np.zeros(m, dtype=np.uint8), np.zeros(nk, dtype=np.uint8))
+                            np.zeros(m, dtype=np.uint8), np.zeros(nk, dtype=np.uint8), new_live)
 
 
 @njit(cache=True, error_model="numpy")
