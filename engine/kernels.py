@@ -403,9 +403,11 @@ def split_contact(code: str, parameters: int, history: int) -> tuple:
     return text, "\n".join(sums) + "\n", len(sums)
 
 
-#: a wall has infinite radius and mass (R* = r_i, m* = m_i); each shape's contacts (engine/walls/)
+#: a wall has infinite radius and mass (R* = r_i, m* = m_i); each shape's contacts (engine/walls/). The radius
+#: and type of i are read only by a wall contact: with planes only, only where a plane is in reach (WALL_REACH)
 WALLS = """\
 ${particle_head}
+${wall_head}
 reff = ri
 meff = mi
 ${contacts}
@@ -415,6 +417,18 @@ ftot2 += fiz
 ttot0 += tix
 ttot1 += tiy
 ttot2 += tiz
+"""
+
+#: planes only: a particle none of whose planes is in reach since the last rebuild (plane bits zero,
+#: engine/walls/plane.py PLANE_CONTACTS tests none) does not read its radius and type - 16 B per particle-step
+#: of the arrays the particle pass streams; ri and ti are then never used
+WALL_REACH = """\
+if plane_near[i] != 0 or nplanes > PLANE_BITS:
+    ri = radius[i]
+    ti = ptype[i]
+else:
+    ri = 0.0
+    ti = 0
 """
 
 #: fix nve/sphere on particle i, whose total force and torque are ftot*, ttot* (read once): with kick, the
@@ -809,7 +823,11 @@ def _particle_pass(c: Combination, parts: list) -> str:
     if c.has_walls:
         contacts = "".join(part.contacts(lambda place: contact_code(c, place),
                                          lambda place: _reset_history(c, place)) for part in parts)
-        walls = render(WALLS, particle_head=PARTICLE_HEAD, contacts=contacts)
+        wall_head = "ri = radius[i]\nti = ptype[i]\n"
+        if all(not getattr(c, shape.features[0]) for name, shape in SHAPES.items() if name != "plane"):
+            wall_head = WALL_REACH
+        head = PARTICLE_HEAD.replace("ri = radius[i]\n", "").replace("ti = ptype[i]\n", "")
+        walls = render(WALLS, particle_head=head, wall_head=wall_head, contacts=contacts)
         unpack_walls = unpack("walls", WALL_FIELDS[:-2]) + "nplanes = plane_point.shape[0]\n"
     gravity_force = _gravity_force(c)
     gather = ""
