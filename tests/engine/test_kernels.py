@@ -290,3 +290,18 @@ def test_the_live_byte_follows_contacts_and_the_rebuild_and_changes_no_result():
         assert kept == n and np.array_equal(fresh.live, np.any(bits != 0, axis=1).astype(np.uint8))
         negative_zero = np.all(fresh.hist == 0.0, axis=1) & np.any(bits != 0, axis=1)
         assert negative_zero.any() and np.any(fresh.hist != 0.0)
+
+
+def test_a_particle_with_no_plane_in_reach_reads_neither_radius_nor_type_in_the_particle_pass():
+    """kernels.WALL_REACH: with planes as the only walls, radius[i] and ptype[i] are read in the particle pass only
+    under the test of the plane bits; with another shape of wall they are read for every particle."""
+    def particle_pass(c):
+        source = generate_source(c)
+        start = source.index("def particle_pass")
+        return source[start:source.index("\n@", start)]
+    planes = particle_pass(Combination(normal="hertz", tangential="history", planes=True, gravity=True))
+    guarded = re.search(r"\n( +)if plane_near\[i\] != 0 or nplanes > PLANE_BITS:\n\1    ri = radius\[i\]\n"
+                        r"\1    ti = ptype\[i\]\n", planes)
+    assert guarded and planes.count("radius[i]") == 1 and planes.count("ptype[i]") == 1
+    both = particle_pass(Combination(normal="hertz", tangential="history", planes=True, cylinders=True))
+    assert "if plane_near[i] != 0 or nplanes" not in both and re.search(r"\n +ri = radius\[i\]\n", both)
