@@ -278,8 +278,9 @@ def _compact(found, slot, start, new_j):
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
 def _carry_history(order, old, new_start, new_j, new_hist, new_live, transfer):
     """Each new pair takes the history of the same pair in the old list (times transfer, per column, when i and
-    j swapped roles), a new pair zeros; new_live[k] is 1 exactly when the row's bits are not all zero (a carried
-    +0.0 times a negative transfer is -0.0, which the pair pass must still reset).
+    j swapped roles), a new pair zeros. new_live[k] (NeighborList.live) is 0 for a new pair and for an old pair
+    whose byte was 0 (its row +0.0, not read) unless its carried row is -0.0 (+0.0 times a negative transfer,
+    which the pair pass must still reset); 1 for the others, whose rows may be nonzero.
 
     New pair (p, b) is old pair (order[p], order[b]): it is found in the old row of the smaller old index (a
     binary search in a row of a few entries); with order[b] the owner there, i and j swapped roles. Every new
@@ -306,16 +307,22 @@ def _carry_history(order, old, new_start, new_j, new_hist, new_live, transfer):
             if pos < 0:
                 for h in range(width):
                     new_hist[k, h] = 0.0
+                new_live[k] = 0
+            elif old.live[pos] == 0:  # the old row is +0.0: not read, the same values written
+                live = False
+                for h in range(width):
+                    value = transfer[h] * 0.0 if swapped else 0.0
+                    new_hist[k, h] = value
+                    live |= np.signbit(value)
+                new_live[k] = live
             elif swapped:
                 for h in range(width):
                     new_hist[k, h] = transfer[h] * old.hist[pos, h]
+                new_live[k] = 1
             else:
                 for h in range(width):
                     new_hist[k, h] = old.hist[pos, h]
-            live = 0
-            for h in range(width):
-                live |= new_hist[k, h] != 0.0 or np.signbit(new_hist[k, h])
-            new_live[k] = live
+                new_live[k] = 1
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)

@@ -283,13 +283,27 @@ def test_the_live_byte_follows_contacts_and_the_rebuild_and_changes_no_result():
         assert np.all(nbr.hist[k] == 1.0) and nbr.live[k] == 0
         nbr.hist[k] = 0.0
         # the rebuild after the particles moved: pairs found again carry their rows and bytes, some swapped
+        old_pid = s.pid.copy()  # the ids of the rows before the rebuild re-orders them
+        before = {(min(a, b), max(a, b)) for a, b, t in zip(old_pid[owner], old_pid[nbr.j], contact[-1]) if t}
         s.x[:] += 0.01 * rng.random((n, 3))
         s.x[:] = np.clip(s.x, lo + 1e-9, hi - 1e-9)
+        s_all, nbr_all = type(s)(*(a.copy() for a in s)), _copy_list(nbr)
+        nbr_all.live[:] = 1  # every old row read, as before the byte
         kept, fresh = rebuild(s, n, nbr, lo, hi, periodic, 0.002, 2, lost_record(n), -np.ones(3))
-        bits = fresh.hist.view(np.uint64)
-        assert kept == n and np.array_equal(fresh.live, np.any(bits != 0, axis=1).astype(np.uint8))
-        negative_zero = np.all(fresh.hist == 0.0, axis=1) & np.any(bits != 0, axis=1)
+        _, fresh_all = rebuild(s_all, n, nbr_all, lo, hi, periodic, 0.002, 2, lost_record(n), -np.ones(3))
+        assert fresh.hist.tobytes() == fresh_all.hist.tobytes()
+        nonzero = np.any(fresh.hist.view(np.uint64) != 0, axis=1)
+        assert kept == n and np.all(fresh.live[nonzero] == 1) and np.any(fresh.live == 0)
+        negative_zero = np.all(fresh.hist == 0.0, axis=1) & nonzero
         assert negative_zero.any() and np.any(fresh.hist != 0.0)
+        # a byte 1 only where a pair was found in contact at the last pass, or carried -0.0
+        was_touching = np.zeros(len(fresh.j), dtype=bool)
+        pid = s.pid
+        for i in range(n):
+            for k in range(fresh.start[i], fresh.start[i + 1]):
+                a, b = pid[i], pid[fresh.j[k]]
+                was_touching[k] = (min(a, b), max(a, b)) in before
+        assert np.array_equal(fresh.live == 1, was_touching | negative_zero)
 
 
 def test_a_particle_with_no_plane_in_reach_reads_neither_radius_nor_type_in_the_particle_pass():
