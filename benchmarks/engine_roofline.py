@@ -23,7 +23,8 @@ taken out as far as it can be). The work, counted in the generated kernels (engi
 Hertz + tangential history, six planes) and engine/neighbor.py:
 
 - a listed pair (the contact-finding sweep, every pair): 10 flops; 5 loads (j, x[j], radius[j]) and 8 stores
-  (the pair's indices, distance vector and square, and its slot among the pairs apart);
+  (the pair's indices, distance vector and square, and its slot among the pairs apart); a pair apart then
+  reads its `live` byte, and its history only where that byte is 1 (engine/neighbor.py NeighborList);
 - a contact (gather, force, sums sweeps): ~130 flops, 5 square roots and 6 divisions (vectorized); ~80 loads and
   ~55 stores (24 columns gathered, read back and 15 written by the force sweep, 12 sums added in list order,
   the history written back);

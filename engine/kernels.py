@@ -230,6 +230,7 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
     reaction = nbr.reaction
     pair_touch = nbr.touch
     ${band_head}
+    pair_live = nbr.live
     nblocks = block_count(n, ${block})
     shares = ${shares}
     for t in prange(shares):
@@ -319,11 +320,16 @@ for cq in range(mf):
     ${reset_history}
     ${zero_row}
 """
-#: a history row is +0.0 in every column exactly when its bits are all zero (-0.0 is reset too)
+#: a history row is +0.0 in every column exactly when its bits are all zero (-0.0 is reset too); a pair whose
+#: live byte is 0 (apart at the last evaluation, or carried as +0.0 by the rebuild: engine/neighbor.py) has such a
+#: row already, and its row is not read at all - in a loose packing most listed pairs are apart, and their
+#: history rows were most of the bytes this sweep streamed
 RESET_PAIR_HISTORY = """\
-if ${bits}:
-    for h in range(${width}):
-        pair_hist[k, h] = 0.0
+if pair_live[k]:
+    pair_live[k] = 0
+    if ${bits}:
+        for h in range(${width}):
+            pair_hist[k, h] = 0.0
 """
 #: the end of particle cur's pairs (the next contact's owner, or the end of the block e): its own sum is added
 #: only when it had a contact as i (mine) - adding +0.0 sums would change nothing but -0.0, and the particle pass
@@ -383,9 +389,11 @@ def split_contact(code: str, parameters: int, history: int) -> tuple:
     return text, "\n".join(sums) + "\n", len(sums)
 
 
-#: a wall has infinite radius and mass (R* = r_i, m* = m_i); each shape's contacts (engine/walls/)
+#: a wall has infinite radius and mass (R* = r_i, m* = m_i); each shape's contacts (engine/walls/). The radius
+#: and type of i are read only by a wall contact: with planes only, only where a plane is in reach (WALL_REACH)
 WALLS = """\
 ${particle_head}
+${wall_head}
 reff = ri
 meff = mi
 ${contacts}
@@ -395,6 +403,18 @@ ftot2 += fiz
 ttot0 += tix
 ttot1 += tiy
 ttot2 += tiz
+"""
+
+#: planes only: a particle none of whose planes is in reach since the last rebuild (plane bits zero,
+#: engine/walls/plane.py PLANE_CONTACTS tests none) does not read its radius and type - 16 B per particle-step
+#: of the arrays the particle pass streams; ri and ti are then never used
+WALL_REACH = """\
+if plane_near[i] != 0 or nplanes > PLANE_BITS:
+    ri = radius[i]
+    ti = ptype[i]
+else:
+    ri = 0.0
+    ti = 0
 """
 
 #: fix nve/sphere on particle i, whose total force and torque are ftot*, ttot* (read once): with kick, the
@@ -792,6 +812,8 @@ def _pair_forces(c: Combination) -> str:
     if rows:
         sums = _band_sums(c, sums, nparam, width)
     sums = "".join(f"pair_hist[k, {h}] = cin[{first_hist + h}, cq]\n" for h in range(width)) + sums
+    if width:
+        sums = "pair_live[k] = 1\n" + sums
     head = PARTICLE_HEAD[:PARTICLE_HEAD.index("fix = 0.0")]
     zero_sums = PARTICLE_HEAD[PARTICLE_HEAD.index("fix = 0.0"):]
     # the pairs found apart: their history reset and (several threads) their reaction rows zeroed, after the
@@ -821,7 +843,11 @@ def _particle_pass(c: Combination, parts: list) -> str:
     if c.has_walls:
         contacts = "".join(part.contacts(lambda place: contact_code(c, place),
                                          lambda place: _reset_history(c, place)) for part in parts)
-        walls = render(WALLS, particle_head=PARTICLE_HEAD, contacts=contacts)
+        wall_head = "ri = radius[i]\nti = ptype[i]\n"
+        if all(not getattr(c, shape.features[0]) for name, shape in SHAPES.items() if name != "plane"):
+            wall_head = WALL_REACH
+        head = PARTICLE_HEAD.replace("ri = radius[i]\n", "").replace("ti = ptype[i]\n", "")
+        walls = render(WALLS, particle_head=head, wall_head=wall_head, contacts=contacts)
         unpack_walls = unpack("walls", WALL_FIELDS[:-2]) + "nplanes = plane_point.shape[0]\n"
     gravity_force = _gravity_force(c)
     gather = ""

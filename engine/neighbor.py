@@ -39,11 +39,15 @@ PARALLEL = dict(prange=True, numpy=False, reduction=False, setitem=False, stenci
 #: rows' order): 1 when the row's pair is in contact at this step (its reaction row holds its share), 0 when not
 #: (its row is not written: it holds what an earlier step left); own (n, uint8): 1 when particle i had a contact
 #: as the first of a pair at this step, 0 when not (not used by the kernels);
+#: live, per listed pair in the list's order: 0 when the pair's history is +0.0 in every column (it was apart at
+#: the last force evaluation, or new), so that a pair found apart again need not read it; 1 when it may be nonzero
+#: (the pair touched, or the list came from elsewhere: restart, insertion). The pair pass sets it for each contact
+#: and clears it where it resets a history (engine/kernels.py FAR); the rebuild derives it from the carried rows.
 #: band (n, uint8): 1 for the particles of the boundary band (`boundary_band`), members (n, int64): their indices
 #: in increasing order, the first shares[1] entries; shares (2, int64): the share count the band was computed
 #: for (0: not yet, after a rebuild or a change of the particles) and the band's size
 NeighborList = namedtuple("NeighborList", ["start", "j", "hist", "rstart", "rslot", "reaction", "touch", "own",
-                                           "band", "members", "shares"])
+                                           "live", "band", "members", "shares"])
 #: particles removed for leaving a fixed axis' range: ids, steps, and count[0] entries used
 LostParticles = namedtuple("LostParticles", ["ids", "steps", "count"])
 
@@ -59,14 +63,16 @@ def stale_band(n: int) -> dict:
 def empty_list(history: int = 0, reaction: int = 3) -> NeighborList:
     return NeighborList(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros((0, history)),
                         np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, reaction)),
-                        np.zeros(0, dtype=np.uint8), np.zeros(0, dtype=np.uint8), **stale_band(0))
+                        np.zeros(0, dtype=np.uint8), np.zeros(0, dtype=np.uint8), np.zeros(0, dtype=np.uint8),
+                        **stale_band(0))
 
 
 def from_half_list(start, j, hist, n: int, reaction: int) -> NeighborList:
-    """The full record of a half list (as restart files store it) for n particles."""
+    """The full record of a half list (as restart files store it) for n particles; every pair's history is
+    tested at its first evaluation (live 1)."""
     rstart, rslot = reverse_index(start, j, n)
     return NeighborList(start, j, hist, rstart, rslot, np.zeros((len(j), reaction)), np.zeros(len(j), np.uint8),
-                        np.zeros(n, np.uint8), **stale_band(n))
+                        np.zeros(n, np.uint8), np.ones(len(j), np.uint8), **stale_band(n))
 
 
 def lost_record(capacity: int) -> LostParticles:
@@ -329,9 +335,11 @@ def _compact(found, slot, start, new_j):
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _carry_history(order, old, new_start, new_j, new_hist, transfer):
+def _carry_history(order, old, new_start, new_j, new_hist, new_live, transfer):
     """Each new pair takes the history of the same pair in the old list (times transfer, per column, when i and
-    j swapped roles), a new pair zeros.
+    j swapped roles), a new pair zeros. new_live[k] (NeighborList.live) is 0 for a new pair and for an old pair
+    whose byte was 0 (its row +0.0, not read) unless its carried row is -0.0 (+0.0 times a negative transfer,
+    which the pair pass must still reset); 1 for the others, whose rows may be nonzero.
 
     New pair (p, b) is old pair (order[p], order[b]): it is found in the old row of the smaller old index (a
     binary search in a row of a few entries); with order[b] the owner there, i and j swapped roles. Every new
@@ -358,12 +366,22 @@ def _carry_history(order, old, new_start, new_j, new_hist, transfer):
             if pos < 0:
                 for h in range(width):
                     new_hist[k, h] = 0.0
+                new_live[k] = 0
+            elif old.live[pos] == 0:  # the old row is +0.0: not read, the same values written
+                live = False
+                for h in range(width):
+                    value = transfer[h] * 0.0 if swapped else 0.0
+                    new_hist[k, h] = value
+                    live |= np.signbit(value)
+                new_live[k] = live
             elif swapped:
                 for h in range(width):
                     new_hist[k, h] = transfer[h] * old.hist[pos, h]
+                new_live[k] = 1
             else:
                 for h in range(width):
                     new_hist[k, h] = old.hist[pos, h]
+                new_live[k] = 1
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
@@ -497,13 +515,14 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer):
     m = new_start[nk]
     width = nbr.hist.shape[1]
     new_hist = np.empty((m if width > 0 else 0, width))
+    new_live = np.zeros(m, dtype=np.uint8)
     if width > 0:
-        _carry_history(order, nbr, new_start, new_j, new_hist, transfer)
+        _carry_history(order, nbr, new_start, new_j, new_hist, new_live, transfer)
     rstart, rslot = reverse_index(new_start, new_j, nk)
     _copy_positions(x, s.x_build, nk)
     return nk, NeighborList(new_start, new_j, new_hist, rstart, rslot, np.empty((m, nbr.reaction.shape[1])),
-                            np.zeros(m, dtype=np.uint8), np.zeros(nk, dtype=np.uint8), np.zeros(nk, np.uint8),
-                            np.zeros(nk, np.int64), np.zeros(2, np.int64))
+                            np.zeros(m, dtype=np.uint8), np.zeros(nk, dtype=np.uint8), new_live,
+                            **stale_band(nk))
 
 
 @njit(cache=True, error_model="numpy")

@@ -113,5 +113,7 @@ def _compact_list(nbr, keep: np.ndarray):
     if nbr.reaction.shape[0] == len(nbr.j):
         reaction[rslot] = nbr.reaction[nbr.rslot[pair_kept]]
         touch[rslot] = nbr.touch[nbr.rslot[pair_kept]]
+    # live bytes (engine/neighbor.py) follow their pairs; a list without them tests every history (1)
+    live = nbr.live[pair_kept] if nbr.live.shape == nbr.j.shape else np.ones(len(new_j), dtype=np.uint8)
     return nbr._replace(start=new_start, j=new_j, hist=np.ascontiguousarray(hist), rstart=rstart, rslot=rslot,
-                        reaction=reaction, touch=touch, own=nbr.own[keep], **stale_band(len(per_owner)))
+                        reaction=reaction, touch=touch, own=nbr.own[keep], live=live, **stale_band(len(per_owner)))

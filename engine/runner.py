@@ -126,6 +126,8 @@ def fit_history(sim, combo: Combination):
         nbr = nbr._replace(own=np.zeros(len(nbr.start) - 1, dtype=np.uint8))
     if len(nbr.band) != len(nbr.start) - 1:
         nbr = nbr._replace(**stale_band(len(nbr.start) - 1))
+    if nbr.live.shape != nbr.j.shape:  # unknown: every pair's history is tested at its first evaluation
+        nbr = nbr._replace(live=np.ones(len(nbr.j), dtype=np.uint8))
     sim.nbr = nbr
     if sim.mesh_nbr.hist.shape[1] != width:  # another contact model: mesh contacts start without history
         sim.mesh_nbr = empty_mesh_list(0, width)

@@ -208,6 +208,7 @@ def test_the_pair_pass_resets_exactly_the_pairs_apart():
         nbr.hist[:] = 1e-6
         nbr.hist[::3] = -0.0  # rows whose bits are not zero though they compare equal to zero
         nbr.hist[1::3, 1] = 0.0
+        nbr.live[:] = 1  # histories written here: every row may be nonzero (engine/neighbor.py NeighborList)
         nbr.reaction[:] = 7.0
         pp = parameter_table(c, materials, inter, 1)
         if parallel:
@@ -220,6 +221,7 @@ def test_the_pair_pass_resets_exactly_the_pairs_apart():
         assert 0 < apart.sum() < len(apart) and (~apart).sum() > 1032  # both kinds, more contacts than a column
         assert np.all(nbr.hist[apart].view(np.uint64) == 0) and np.all(nbr.hist[~apart] != 1e-6)
         in_band = np.zeros(len(nbr.j), dtype=bool)
+        assert np.all(nbr.live[apart] == 0) and np.all(nbr.live[~apart] == 1)
         if parallel:  # pair k's row is rslot[k]; the rows of pairs apart are marked, not written
             in_band = nbr.band[nbr.j] == 1
             assert (numba.config.NUMBA_NUM_THREADS == 1) == (not in_band.any())
@@ -232,3 +234,114 @@ def test_the_pair_pass_resets_exactly_the_pairs_apart():
         touching[owner[~apart]] = True
         touching[nbr.j[~apart & ~in_band]] = True
         assert np.all(np.any(s.f[touching] != 0.0, axis=1)) and np.all(s.f[~touching] == 0.0)
+
+
+def _copy_list(nbr):
+    return type(nbr)(*(a.copy() for a in nbr))
+
+
+def test_the_live_byte_follows_contacts_and_the_rebuild_and_changes_no_result():
+    """A pair's live byte (engine/neighbor.py NeighborList) is 1 after a pass that found it in contact, 0 after one
+    that found it apart; a pair whose byte is 0 has its history row neither read nor written when found apart
+    (kernels.RESET_PAIR_HISTORY); the rebuild sets it exactly where the carried row's bits are not zero (a +0.0
+    carried by a pair whose i and j swapped is -0.0: 1). Over passes in which pairs touch, separate and touch
+    again, the forces, torques and histories are the same bytes as those of the same passes testing every row
+    (every byte 1, the way before the byte existed)."""
+    import numba
+
+    from engine import state as particle_state
+    from engine.neighbor import empty_list, lost_record, rebuild, start_band
+
+    rng = np.random.default_rng(5)
+    n = 1500
+    lo, hi = np.zeros(3), np.array([0.1, 0.1, 0.1])
+    x0 = lo + rng.random((n, 3)) * (hi - lo)
+    radius = np.full(n, 0.003)
+    mass = 2500.0 * 4.0 / 3.0 * np.pi * radius ** 3
+    materials = {1: (1e7, 0.3, 2500.0)}
+    inter = {(1, 1): {"restitution": 0.5, "friction": 0.3, "rolling_friction": 0.0, "cohesion_energy_density": 0.0}}
+    periodic = np.zeros(3, dtype=np.bool_)
+    for parallel in (False, True):
+        c = Combination(normal="hertz", tangential="history", parallel=parallel)
+        module = kernels.build_kernel(c)
+        pp = parameter_table(c, materials, inter, 1)
+        s = particle_state.append(particle_state.empty(0, 3), x=x0.copy(), radius=radius, mass=mass,
+                                  inv_mass=1.0 / mass, inv_inertia=1.0 / (0.4 * mass * radius ** 2),
+                                  pid=np.arange(1, n + 1), v=0.01 * rng.standard_normal((n, 3)),
+                                  x_build=x0.copy(), omega=np.ones((n, 3)))
+        kept, nbr = rebuild(s, n, empty_list(3, c.reaction_width), lo, hi, periodic, 0.002, 1, lost_record(n),
+                            -np.ones(3))
+        assert kept == n and np.all(nbr.live == 0)  # new pairs: history +0.0
+        owner = np.repeat(np.arange(n), np.diff(nbr.start))
+        home = s.x.copy()
+        swing = 0.002 * rng.standard_normal((n, 3))
+        old = _copy_list(nbr)
+        contact = []
+        for step in range(8):
+            s.x[:] = home + np.sin(1.3 * step) * swing  # pairs close, part and close again
+            results = []
+            for lst in (nbr, old):
+                if lst is old:
+                    lst.live[:] = 1  # the former pass: every history row's bits tested
+                s.f[:] = 0.0
+                s.torque[:] = 0.0
+                if parallel:  # every thread of the pool: a boundary band (engine/neighbor.py start_band)
+                    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+                    start_band(lst, n, kernels.PAIR_BLOCK, s.f, s.torque)
+                module.pair_forces(s, n, lst, pp, 1e-5, 1.0, hi - lo)
+                results.append((s.f.copy(), s.torque.copy(), lst.hist.copy()))
+            for new, before in zip(*results):
+                assert new.tobytes() == before.tobytes()
+            d = np.linalg.norm(s.x[owner] - s.x[nbr.j], axis=1)
+            touching = d < radius[owner] + radius[nbr.j]
+            assert np.array_equal(nbr.live, touching.astype(np.uint8))
+            contact.append(touching)
+        contact = np.array(contact)
+        # some pair touched, separated and touched again
+        assert np.any(contact[:-2] & ~contact[1:-1] & contact[2:])
+        # a pair apart whose byte says +0.0 is not looked at: a nonzero row stays as it is
+        k = np.nonzero(~contact[-1])[0][0]
+        nbr.hist[k] = 1.0
+        s.f[:] = 0.0
+        if parallel:
+            start_band(nbr, n, kernels.PAIR_BLOCK, s.f, s.torque)
+        module.pair_forces(s, n, nbr, pp, 1e-5, 1.0, hi - lo)
+        assert np.all(nbr.hist[k] == 1.0) and nbr.live[k] == 0
+        nbr.hist[k] = 0.0
+        # the rebuild after the particles moved: pairs found again carry their rows and bytes, some swapped
+        old_pid = s.pid.copy()  # the ids of the rows before the rebuild re-orders them
+        before = {(min(a, b), max(a, b)) for a, b, t in zip(old_pid[owner], old_pid[nbr.j], contact[-1]) if t}
+        s.x[:] += 0.01 * rng.random((n, 3))
+        s.x[:] = np.clip(s.x, lo + 1e-9, hi - 1e-9)
+        s_all, nbr_all = type(s)(*(a.copy() for a in s)), _copy_list(nbr)
+        nbr_all.live[:] = 1  # every old row read, as before the byte
+        kept, fresh = rebuild(s, n, nbr, lo, hi, periodic, 0.002, 2, lost_record(n), -np.ones(3))
+        _, fresh_all = rebuild(s_all, n, nbr_all, lo, hi, periodic, 0.002, 2, lost_record(n), -np.ones(3))
+        assert fresh.hist.tobytes() == fresh_all.hist.tobytes()
+        nonzero = np.any(fresh.hist.view(np.uint64) != 0, axis=1)
+        assert kept == n and np.all(fresh.live[nonzero] == 1) and np.any(fresh.live == 0)
+        negative_zero = np.all(fresh.hist == 0.0, axis=1) & nonzero
+        assert negative_zero.any() and np.any(fresh.hist != 0.0)
+        # a byte 1 only where a pair was found in contact at the last pass, or carried -0.0
+        was_touching = np.zeros(len(fresh.j), dtype=bool)
+        pid = s.pid
+        for i in range(n):
+            for k in range(fresh.start[i], fresh.start[i + 1]):
+                a, b = pid[i], pid[fresh.j[k]]
+                was_touching[k] = (min(a, b), max(a, b)) in before
+        assert np.array_equal(fresh.live == 1, was_touching | negative_zero)
+
+
+def test_a_particle_with_no_plane_in_reach_reads_neither_radius_nor_type_in_the_particle_pass():
+    """kernels.WALL_REACH: with planes as the only walls, radius[i] and ptype[i] are read in the particle pass only
+    under the test of the plane bits; with another shape of wall they are read for every particle."""
+    def particle_pass(c):
+        source = generate_source(c)
+        start = source.index("def particle_pass")
+        return source[start:source.index("\n@", start)]
+    planes = particle_pass(Combination(normal="hertz", tangential="history", planes=True, gravity=True))
+    guarded = re.search(r"\n( +)if plane_near\[i\] != 0 or nplanes > PLANE_BITS:\n\1    ri = radius\[i\]\n"
+                        r"\1    ti = ptype\[i\]\n", planes)
+    assert guarded and planes.count("radius[i]") == 1 and planes.count("ptype[i]") == 1
+    both = particle_pass(Combination(normal="hertz", tangential="history", planes=True, cylinders=True))
+    assert "if plane_near[i] != 0 or nplanes" not in both and re.search(r"\n +ri = radius\[i\]\n", both)

@@ -108,7 +108,7 @@ class _Scene:
         reaction[rslot] = rng.random((len(j), 3))
         touch = rng.integers(0, 2, len(j)).astype(np.uint8)
         self.nbr = NeighborList(start, j, hist, rstart, rslot, reaction, touch, np.zeros(n, dtype=np.uint8),
-                                **stale_band(n))
+                                rng.integers(0, 2, len(j)).astype(np.uint8), **stale_band(n))
         # particle-triangle contacts (engine/mesh.py): 0-3 triangles per particle, each with its history
         counts = rng.integers(0, 4, n)
         mesh_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
@@ -123,14 +123,15 @@ class _Scene:
 
 
 def _pairs_by_id(scene):
-    """{(id_i, id_j): (history row, reaction row, touching)} of a half list."""
+    """{(id_i, id_j): (history row, reaction row, touching, live byte)} of a half list."""
     out = {}
     pid = scene.state.pid
     nbr = scene.nbr
     for i in range(scene.n):
         for k in range(nbr.start[i], nbr.start[i + 1]):
             q = nbr.rslot[k]
-            out[(pid[i], pid[nbr.j[k]])] = (tuple(nbr.hist[k]), tuple(nbr.reaction[q]), int(nbr.touch[q]))
+            out[(pid[i], pid[nbr.j[k]])] = (tuple(nbr.hist[k]), tuple(nbr.reaction[q]), int(nbr.touch[q]),
+                                            int(nbr.live[k]))
     return out
 
 

@@ -142,6 +142,7 @@ def test_neighbor_list_matches_brute_force_after_reordering_and_loss(periodic):
         owner = np.repeat(np.arange(kept), np.diff(nbr.start))
         nbr.hist[:, 0] = s.pid[owner] - s.pid[nbr.j]
         nbr.hist[:, 1] = s.pid[owner] + s.pid[nbr.j]
+        nbr.live[:] = 1  # rows written here: the rebuild reads them (engine/neighbor.py NeighborList.live)
         s.x[:kept] += 0.004 * np.random.default_rng(9).standard_normal((kept, 3))
         kept2, nbr2 = rebuild(s, kept, nbr, lo, hi, periodic, skin, 2, lost_record(kept), np.array([-1.0, 1.0, -1.0]))
         s = particle_state.trimmed(s, kept2)
