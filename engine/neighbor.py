@@ -522,7 +522,7 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer):
     _copy_positions(x, s.x_build, nk)
     return nk, NeighborList(new_start, new_j, new_hist, rstart, rslot, np.empty((m, nbr.reaction.shape[1])),
                             np.zeros(m, dtype=np.uint8), np.zeros(nk, dtype=np.uint8), new_live,
-                            **stale_band(nk))
+                            np.zeros(nk, np.uint8), np.zeros(nk, np.int64), np.zeros(2, np.int64))
 
 
 @njit(cache=True, error_model="numpy")
