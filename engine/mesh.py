@@ -507,22 +507,21 @@ def _cell_of(px, py, pz, origin, cell, nc):
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _scan(x, radius, n, tv, skin, origin, cell, nc, cell_start, cell_tri, start, out, write):
-    """Per particle: the triangles of its cell within radius + skin of its centre. Counts into start[i + 1]
-    (write False) or writes them into out from start[i] (write True)."""
+def _scan(x, radius, n, tv, skin, origin, cell, nc, cell_start, cell_tri, room, hits, count):
+    """Per particle: the triangles of its cell within radius + skin of its centre, in increasing order, written
+    into hits from room[i] (room for every triangle its cell lists), their number into count[i]. One distance
+    test per (particle, listed triangle): a pass that counted and a second that wrote tested each pair twice."""
     for i in prange(n):
         key = _cell_of(x[i, 0], x[i, 1], x[i, 2], origin, cell, nc)
-        count = 0
+        found = 0
         if key >= 0:
             reach = radius[i] + skin
             for k in range(cell_start[key], cell_start[key + 1]):
                 t = cell_tri[k]
                 if triangle_distance(x[i, 0], x[i, 1], x[i, 2], tv, t) < reach:
-                    if write:
-                        out[start[i] + count] = t
-                    count += 1
-        if not write:
-            start[i + 1] = count
+                    hits[room[i] + found] = t
+                    found += 1
+        count[i] = found
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
@@ -559,12 +558,20 @@ def mesh_rebuild(s, n, old, tv, skin):
     for i in range(n):
         rmax = max(rmax, radius[i])
     origin, cell, nc, cell_start, cell_tri = _triangle_grid(tv, rmax + skin, n)
-    tri = np.zeros(0, dtype=np.int32)
-    _scan(x, radius, n, tv, skin, origin, cell, nc, cell_start, cell_tri, start, tri, False)
+    room = np.empty(n + 1, dtype=np.int64)  # each particle's room in hits: as many as its cell lists
+    room[0] = 0
     for i in range(n):
-        start[i + 1] += start[i]
+        key = _cell_of(x[i, 0], x[i, 1], x[i, 2], origin, cell, nc)
+        room[i + 1] = room[i] + (cell_start[key + 1] - cell_start[key] if key >= 0 else 0)
+    hits = np.empty(room[n], dtype=np.int32)
+    count = np.empty(n, dtype=np.int64)
+    _scan(x, radius, n, tv, skin, origin, cell, nc, cell_start, cell_tri, room, hits, count)
+    for i in range(n):
+        start[i + 1] = start[i] + count[i]
     tri = np.empty(start[n], dtype=np.int32)
-    _scan(x, radius, n, tv, skin, origin, cell, nc, cell_start, cell_tri, start, tri, True)
+    for i in range(n):
+        for k in range(count[i]):
+            tri[start[i] + k] = hits[room[i] + k]
     hist = np.zeros((start[n], width))
     if width > 0 and old.tri.shape[0] > 0:
         top = 0
