@@ -382,6 +382,13 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq, lo, hi, 
     member_offset = b.member_offset
     nb = b.mass.shape[0]
     box = hi - lo
+    # flags and gravity as locals: read once, not per member (stores to the force arrays might alias them)
+    per0 = periodic[0]
+    per1 = periodic[1]
+    per2 = periodic[2]
+    g0 = gravity[0]
+    g1 = gravity[1]
+    g2 = gravity[2]
     if collect:
         for k in range(nb):
             b.members[k] = 0
@@ -393,17 +400,18 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq, lo, hi, 
             if k < 0:
                 continue
             b.members[k] += 1
-            fx = f[i, 0] - mass[i] * gravity[0]
-            fy = f[i, 1] - mass[i] * gravity[1]
-            fz = f[i, 2] - mass[i] * gravity[2]
+            mi = mass[i]
+            fx = f[i, 0] - mi * g0
+            fy = f[i, 1] - mi * g1
+            fz = f[i, 2] - mi * g2
             rx = x[i, 0] - b.x[k, 0]
             ry = x[i, 1] - b.x[k, 1]
             rz = x[i, 2] - b.x[k, 2]
-            if periodic[0]:
+            if per0:
                 rx -= box[0] * np.rint(rx / box[0])
-            if periodic[1]:
+            if per1:
                 ry -= box[1] * np.rint(ry / box[1])
-            if periodic[2]:
+            if per2:
                 rz -= box[2] * np.rint(rz / box[2])
             b.force[k, 0] += fx
             b.force[k, 1] += fy
@@ -411,9 +419,12 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq, lo, hi, 
             b.torque[k, 0] += torque[i, 0] + ry * fz - rz * fy
             b.torque[k, 1] += torque[i, 1] + rz * fx - rx * fz
             b.torque[k, 2] += torque[i, 2] + rx * fy - ry * fx
-            for a in range(3):
-                f[i, a] = mass[i] * gravity[a]
-                torque[i, a] = 0.0
+            f[i, 0] = mi * g0
+            f[i, 1] = mi * g1
+            f[i, 2] = mi * g2
+            torque[i, 0] = 0.0
+            torque[i, 1] = 0.0
+            torque[i, 2] = 0.0
         for k in range(nb):
             if b.members[k] > 0:
                 for a in range(3):
@@ -452,20 +463,27 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq, lo, hi, 
         omega[i, 1] = w1
         omega[i, 2] = w2
         if drift:
-            x[i, 0] = b.x[k, 0] + r0
-            x[i, 1] = b.x[k, 1] + r1
-            x[i, 2] = b.x[k, 2] + r2
-            for a in range(3):
-                if periodic[a] and (x[i, a] < lo[a] or x[i, a] >= hi[a]):
-                    x[i, a] -= box[a] * np.floor((x[i, a] - lo[a]) / box[a])
-            dx = x[i, 0] - x_build[i, 0]
-            dy = x[i, 1] - x_build[i, 1]
-            dz = x[i, 2] - x_build[i, 2]
-            if periodic[0]:
+            # the position kept in locals: the same values as read back from x, without reloading them
+            xi0 = b.x[k, 0] + r0
+            xi1 = b.x[k, 1] + r1
+            xi2 = b.x[k, 2] + r2
+            if per0 and (xi0 < lo[0] or xi0 >= hi[0]):
+                xi0 -= box[0] * np.floor((xi0 - lo[0]) / box[0])
+            if per1 and (xi1 < lo[1] or xi1 >= hi[1]):
+                xi1 -= box[1] * np.floor((xi1 - lo[1]) / box[1])
+            if per2 and (xi2 < lo[2] or xi2 >= hi[2]):
+                xi2 -= box[2] * np.floor((xi2 - lo[2]) / box[2])
+            x[i, 0] = xi0
+            x[i, 1] = xi1
+            x[i, 2] = xi2
+            dx = xi0 - x_build[i, 0]
+            dy = xi1 - x_build[i, 1]
+            dz = xi2 - x_build[i, 2]
+            if per0:
                 dx -= box[0] * np.rint(dx / box[0])
-            if periodic[1]:
+            if per1:
                 dy -= box[1] * np.rint(dy / box[1])
-            if periodic[2]:
+            if per2:
                 dz -= box[2] * np.rint(dz / box[2])
             d2 = dx * dx + dy * dy + dz * dz
             if d2 > half_skin_sq:
