@@ -40,18 +40,10 @@ from numba import prange
 from .jit import njit
 from .neighbor import PARALLEL
 
-#: the cell grid of the triangles a list was built with (`_triangle_grid`), kept for the next rebuild: the
-#: corners it was built from (m, as tv), the reach (m) its cells were inflated by (-1: no grid), origin (m),
-#: cell size (m), cells per axis, each cell's triangles (cell_start, cell_tri)
-TriangleGrid = namedtuple("TriangleGrid", ["tv", "reach", "origin", "cell", "nc", "cell_start", "cell_tri"])
-NO_GRID = TriangleGrid(np.zeros((0, 3, 3)), -1.0, np.zeros(3), 1.0, np.ones(3, dtype=np.int64),
-                       np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32))
-
 #: start (n+1): rows of particle i are start[i]..start[i+1]; tri (int32): the triangle of each entry; hist
 #: (entries, width): contact history; touch (entries, uint8): the entry is a contact at this step; owner (n):
-#: the particle id each row belonged to when it was built; grid: the triangles' cell grid of that build (never
-#: changed in place: a rebuild makes a new one or keeps it whole)
-MeshList = namedtuple("MeshList", ["start", "tri", "hist", "touch", "owner", "grid"], defaults=(NO_GRID,))
+#: the particle id each row belonged to when it was built
+MeshList = namedtuple("MeshList", ["start", "tri", "hist", "touch", "owner"])
 
 #: contact regions of closest_point
 FACE, EDGE0, EDGE1, EDGE2, CORNER0, CORNER1, CORNER2 = range(7)
@@ -561,18 +553,11 @@ def mesh_rebuild(s, n, old, tv, skin):
     width = old.hist.shape[1]
     if n == 0 or tv.shape[0] == 0:
         return MeshList(start, np.zeros(0, dtype=np.int32), np.zeros((0, width)), np.zeros(0, dtype=np.uint8),
-                        pid[:n].copy(), old.grid)
+                        pid[:n].copy())
     rmax = 0.0
     for i in range(n):
         rmax = max(rmax, radius[i])
-    grid = old.grid
-    if not (grid.reach == rmax + skin and _same_corners(grid.tv, tv)):
-        # a mesh that does not move (a hopper) keeps its grid from rebuild to rebuild; its cells only propose
-        # the triangles each particle's distance test then takes (the same list from any grid that covers
-        # every triangle within reach of the particle's cell)
-        origin, cell, nc, cell_start, cell_tri = _triangle_grid(tv, rmax + skin, n)
-        grid = TriangleGrid(tv.copy(), rmax + skin, origin, cell, nc, cell_start, cell_tri)
-    origin, cell, nc, cell_start, cell_tri = grid.origin, grid.cell, grid.nc, grid.cell_start, grid.cell_tri
+    origin, cell, nc, cell_start, cell_tri = _triangle_grid(tv, rmax + skin, n)
     room = np.empty(n + 1, dtype=np.int64)  # each particle's room in hits: as many as its cell lists
     room[0] = 0
     for i in range(n):
@@ -597,20 +582,7 @@ def mesh_rebuild(s, n, old, tv, skin):
             if old.owner[r] >= 0:
                 row_of[old.owner[r]] = r
         _carry(pid, n, start, tri, hist, old.start, old.tri, old.hist, row_of)
-    return MeshList(start, tri, hist, np.zeros(start[n], dtype=np.uint8), pid[:n].copy(), grid)
-
-
-@njit(cache=True, error_model="numpy")
-def _same_corners(a, b):
-    """The corners a and b are equal (same shape, same values)."""
-    if a.shape != b.shape:
-        return False
-    for t in range(a.shape[0]):
-        for k in range(3):
-            for c in range(3):
-                if a[t, k, c] != b[t, k, c]:
-                    return False
-    return True
+    return MeshList(start, tri, hist, np.zeros(start[n], dtype=np.uint8), pid[:n].copy())
 
 
 @njit(cache=True, error_model="numpy")
