@@ -4,7 +4,9 @@ engine runs, testcases/shapes/drum_repose and testcases/scenes/drum).
 Scenes (the test cases' own scripts and STL mesh, with fewer steps; thermo every 500 steps, VTK every 5000):
 - `spheres`: 576 spheres in the rotating mesh drum (drum_repose spheres.json);
 - `dumbbells`: 288 two-sphere clumps (576 members) inserted into it (drum_repose clumps.json, seed 1);
-- `rotating`: testcases/scenes/drum scene.json (576 spheres, the same drum).
+- `rotating`: testcases/scenes/drum scene.json (576 spheres, the same drum);
+- `hopper`: testcases/scenes/hopper scene.json, D = 20 mm (6,000 spheres draining through a static mesh hopper of
+  2,688 triangles, an outlet every 100 steps).
 
 Each build is a folder holding engine/ (an old commit: `git archive main engine | tar -x -C /tmp/drum-old`).
 Builds alternate within each repetition, so that the machine's load hits them alike, on one thread. Printed per
@@ -16,6 +18,7 @@ dumps) is byte for byte the first build's.
     git archive main engine | tar -x -C /tmp/drum-old
     python benchmarks/engine_drum.py --builds /tmp/drum-old . --steps 20000 --repeat 3
     python benchmarks/engine_drum.py --builds /tmp/drum-old . --scenes dumbbells --steps 60000
+    python benchmarks/engine_drum.py --builds /tmp/drum-old . --scenes hopper --steps 5000
 """
 from __future__ import annotations
 
@@ -31,19 +34,21 @@ import tempfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-#: scene -> (test case folder, script, extra variables)
+DRUM = dict(thermo_every=500, dump_every=5000, omega=2.0, vx0=0.0)
+#: scene -> (test case folder, script, variables but the steps, the name of the steps variable)
 SCENES = {
-    "spheres": ("testcases/shapes/drum_repose", "spheres.json", {}),
-    "dumbbells": ("testcases/shapes/drum_repose", "clumps.json", {"count": 288, "seed": 1}),
-    "rotating": ("testcases/scenes/drum", "scene.json", {}),
+    "spheres": ("testcases/shapes/drum_repose", "spheres.json", DRUM, "steps"),
+    "dumbbells": ("testcases/shapes/drum_repose", "clumps.json", dict(DRUM, count=288, seed=1), "steps"),
+    "rotating": ("testcases/scenes/drum", "scene.json", DRUM, "steps"),
+    "hopper": ("testcases/scenes/hopper", "scene.json", dict(D_MM=20, N=6000, SEED=1), "STEPS"),
 }
 
 
 def run(build: Path, scene: str, steps: int, folder: Path) -> dict:
     """One run of a scene by a build in folder (a copy of the test case); timing.json of the run."""
-    case, script, extra = SCENES[scene]
+    case, script, extra, steps_name = SCENES[scene]
     shutil.copytree(REPO / case, folder)
-    values = dict(steps=steps, thermo_every=500, dump_every=5000, omega=2.0, vx0=0.0, **extra)
+    values = dict(extra, **{steps_name: steps})
     command = [sys.executable, "-m", "engine", "-in", script, "-threads", "1"]
     for name, value in values.items():
         command += ["-var", name, str(value)]
