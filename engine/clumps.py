@@ -230,17 +230,10 @@ def _rotation(q0, q1, q2, q3, rot):
     rot[2, 2] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
 
 
-@njit(cache=True, error_model="numpy")
-def angular_velocity(q, angmom, inertia, w):
-    """w = R diag(1/I) R^T L (rad/s, space frame) of orientation q, angular momentum L (space frame) and
-    principal moments I."""
-    w[0], w[1], w[2] = _omega(q[0], q[1], q[2], q[3], angmom[0], angmom[1], angmom[2], inertia[0], inertia[1],
-                              inertia[2])
-
-
 @njit(cache=True, error_model="numpy", inline="always")
 def _omega(q0, q1, q2, q3, l0, l1, l2, i0, i1, i2):
-    """w = R diag(1/I) R^T L (space frame) for the quaternion (q0, q1, q2, q3): scalars in, scalars out."""
+    """w = R diag(1/I) R^T L (rad/s, space frame) of the orientation quaternion (q0, q1, q2, q3), angular
+    momentum L (kg m^2/s, space frame) and principal moments I (kg m^2): scalars in, scalars out."""
     ax0 = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
     ax1 = 2.0 * (q1 * q2 + q0 * q3)
     ax2 = 2.0 * (q1 * q3 - q0 * q2)
@@ -268,9 +261,10 @@ def _quaternion_step(q0, q1, q2, q3, w0, w1, w2, h):
     return n0 / norm, n1 / norm, n2 / norm, n3 / norm
 
 
-@njit(cache=True, error_model="numpy")
-def rotate(q, angmom, inertia, dt):
-    """q advanced by one time step dt with the angular momentum L of the half step (in place).
+@njit(cache=True, error_model="numpy", inline="always")
+def rotate(q0, q1, q2, q3, l0, l1, l2, i0, i1, i2, dt):
+    """The orientation quaternion q advanced by one time step dt (s) with the angular momentum L of the half
+    step (kg m^2/s, space frame) and principal moments I (kg m^2): scalars in, the new q out.
 
     Richardson extrapolation of the first-order update of dq/dt = 1/2 (0, w) q, w = R(q) I^-1 R(q)^T L:
     one full step q_1 and two half steps q_1/2 (w recomputed at the midpoint), then q = 2 q_1/2 - q_1,
@@ -279,11 +273,9 @@ def rotate(q, angmom, inertia, dt):
     the Richardson step as in LAMMPS' MathExtra::richardson). Angular momentum is kept in the space frame, so
     that without torque it is conserved exactly.
     """
-    l0, l1, l2 = angmom[0], angmom[1], angmom[2]
-    i0, i1, i2 = inertia[0], inertia[1], inertia[2]
-    w0, w1, w2 = _omega(q[0], q[1], q[2], q[3], l0, l1, l2, i0, i1, i2)
-    f0, f1, f2, f3 = _quaternion_step(q[0], q[1], q[2], q[3], w0, w1, w2, dt)
-    h0, h1, h2, h3 = _quaternion_step(q[0], q[1], q[2], q[3], w0, w1, w2, 0.5 * dt)
+    w0, w1, w2 = _omega(q0, q1, q2, q3, l0, l1, l2, i0, i1, i2)
+    f0, f1, f2, f3 = _quaternion_step(q0, q1, q2, q3, w0, w1, w2, dt)
+    h0, h1, h2, h3 = _quaternion_step(q0, q1, q2, q3, w0, w1, w2, 0.5 * dt)
     w0, w1, w2 = _omega(h0, h1, h2, h3, l0, l1, l2, i0, i1, i2)
     s0, s1, s2, s3 = _quaternion_step(h0, h1, h2, h3, w0, w1, w2, 0.5 * dt)
     r0 = 2.0 * s0 - f0
@@ -291,31 +283,76 @@ def rotate(q, angmom, inertia, dt):
     r2 = 2.0 * s2 - f2
     r3 = 2.0 * s3 - f3
     norm = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2 + r3 * r3)
-    q[0] = r0 / norm
-    q[1] = r1 / norm
-    q[2] = r2 / norm
-    q[3] = r3 / norm
+    return r0 / norm, r1 / norm, r2 / norm, r3 / norm
+
+
+#: bodies per sweep of advance_bodies, the length of its columns: a literal, so that the columns lie a
+#: constant distance apart and LLVM turns the sweeps over them into SIMD instructions (as the pair loop's
+#: CONTACT_CHUNK, engine/kernels.py); 16 doubles per body: 8 kB, in L1
+BODY_CHUNK = 64
 
 
 @njit(cache=True, error_model="numpy")
-def advance_body(x, v, angmom, q, inertia, omega, force, torque, mass, dt, kick, drift):
-    """One rigid body's share of the velocity Verlet step (engine/kernels.py INTEGRATE), in place: with kick,
-    the second half kick of the step (v += dt/2 F/m in m/s, L += dt/2 T in kg m^2/s); with drift, the next
-    step's first half kick, the drift x += dt v (m) and the rotation of q (rotate). Then the angular velocity
-    w = R I^-1 R^T L (rad/s). The one home of the rule for clumps and superquadrics."""
+def advance_bodies(x, v, angmom, q, inertia, omega, force, torque, mass, present, dt, kick, drift):
+    """The rigid bodies' share of the velocity Verlet step (engine/kernels.py INTEGRATE), in place, for every
+    body k with present[k] != 0 (the others stay as they are): with kick, the second half kick of the step
+    (v += dt/2 F/m in m/s, L += dt/2 T in kg m^2/s); with drift, the next step's first half kick, the drift
+    x += dt v (m) and the rotation of q (`rotate`). Then the angular velocity w = R I^-1 R^T L (rad/s). The
+    one home of the rule for clumps and superquadrics.
+
+    The bodies are taken BODY_CHUNK at a time in three sweeps: (1) the kicks and the drift of x, body by body,
+    gathering q, L and I into columns; (2) the rotation and the angular velocity of every gathered body, a
+    loop without loads from the bodies' arrays, which LLVM turns into SIMD instructions (square roots and
+    divisions round as the scalar ones do: the same bytes); (3) q and w written back. A body's arithmetic is
+    the same, in the same order, as body by body (bodies do not interact here): only the schedule changes.
+    (A call per body cost more than its arithmetic: about 180 ns per body, against 40 ns in sweeps.)"""
+    nb = mass.shape[0]
+    col = np.empty((13, BODY_CHUNK))
+    which = np.empty(BODY_CHUNK, dtype=np.int64)
     half_dt = 0.5 * dt
-    inv_m = 1.0 / mass
-    if kick:
-        for a in range(3):
-            v[a] += half_dt * force[a] * inv_m
-            angmom[a] += half_dt * torque[a]
-    if drift:
-        for a in range(3):
-            v[a] += half_dt * force[a] * inv_m
-            angmom[a] += half_dt * torque[a]
-            x[a] += dt * v[a]
-        rotate(q, angmom, inertia, dt)
-    angular_velocity(q, angmom, inertia, omega)
+    k = 0
+    while k < nb:
+        m = 0
+        while m < BODY_CHUNK and k < nb:
+            if present[k] != 0:
+                inv_m = 1.0 / mass[k]
+                if kick:
+                    for a in range(3):
+                        v[k, a] += half_dt * force[k, a] * inv_m
+                        angmom[k, a] += half_dt * torque[k, a]
+                if drift:
+                    for a in range(3):
+                        v[k, a] += half_dt * force[k, a] * inv_m
+                        angmom[k, a] += half_dt * torque[k, a]
+                        x[k, a] += dt * v[k, a]
+                which[m] = k
+                for a in range(4):
+                    col[a, m] = q[k, a]
+                for a in range(3):
+                    col[4 + a, m] = angmom[k, a]
+                    col[7 + a, m] = inertia[k, a]
+                m += 1
+            k += 1
+        if drift:
+            for c in range(m):
+                q0, q1, q2, q3 = rotate(col[0, c], col[1, c], col[2, c], col[3, c], col[4, c], col[5, c],
+                                        col[6, c], col[7, c], col[8, c], col[9, c], dt)
+                col[0, c] = q0
+                col[1, c] = q1
+                col[2, c] = q2
+                col[3, c] = q3
+        for c in range(m):
+            w0, w1, w2 = _omega(col[0, c], col[1, c], col[2, c], col[3, c], col[4, c], col[5, c], col[6, c],
+                                col[7, c], col[8, c], col[9, c])
+            col[10, c] = w0
+            col[11, c] = w1
+            col[12, c] = w2
+        for c in range(m):
+            kc = which[c]
+            for a in range(4):
+                q[kc, a] = col[a, c]
+            for a in range(3):
+                omega[kc, a] = col[10 + a, c]
 
 
 @njit(cache=True, error_model="numpy")
@@ -345,6 +382,13 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq, lo, hi, 
     member_offset = b.member_offset
     nb = b.mass.shape[0]
     box = hi - lo
+    # flags and gravity as locals: read once, not per member (stores to the force arrays might alias them)
+    per0 = periodic[0]
+    per1 = periodic[1]
+    per2 = periodic[2]
+    g0 = gravity[0]
+    g1 = gravity[1]
+    g2 = gravity[2]
     if collect:
         for k in range(nb):
             b.members[k] = 0
@@ -356,17 +400,18 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq, lo, hi, 
             if k < 0:
                 continue
             b.members[k] += 1
-            fx = f[i, 0] - mass[i] * gravity[0]
-            fy = f[i, 1] - mass[i] * gravity[1]
-            fz = f[i, 2] - mass[i] * gravity[2]
+            mi = mass[i]
+            fx = f[i, 0] - mi * g0
+            fy = f[i, 1] - mi * g1
+            fz = f[i, 2] - mi * g2
             rx = x[i, 0] - b.x[k, 0]
             ry = x[i, 1] - b.x[k, 1]
             rz = x[i, 2] - b.x[k, 2]
-            if periodic[0]:
+            if per0:
                 rx -= box[0] * np.rint(rx / box[0])
-            if periodic[1]:
+            if per1:
                 ry -= box[1] * np.rint(ry / box[1])
-            if periodic[2]:
+            if per2:
                 rz -= box[2] * np.rint(rz / box[2])
             b.force[k, 0] += fx
             b.force[k, 1] += fy
@@ -374,19 +419,22 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq, lo, hi, 
             b.torque[k, 0] += torque[i, 0] + ry * fz - rz * fy
             b.torque[k, 1] += torque[i, 1] + rz * fx - rx * fz
             b.torque[k, 2] += torque[i, 2] + rx * fy - ry * fx
-            for a in range(3):
-                f[i, a] = mass[i] * gravity[a]
-                torque[i, a] = 0.0
+            f[i, 0] = mi * g0
+            f[i, 1] = mi * g1
+            f[i, 2] = mi * g2
+            torque[i, 0] = 0.0
+            torque[i, 1] = 0.0
+            torque[i, 2] = 0.0
         for k in range(nb):
             if b.members[k] > 0:
                 for a in range(3):
                     b.force[k, a] += b.mass[k] * gravity[a]
     rot = b.rot
+    advance_bodies(b.x, b.v, b.angmom, b.q, b.inertia, b.omega, b.force, b.torque, b.mass, b.members, dt, kick,
+                   drift)
     for k in range(nb):
         if b.members[k] == 0:
             continue
-        advance_body(b.x[k], b.v[k], b.angmom[k], b.q[k], b.inertia[k], b.omega[k], b.force[k], b.torque[k],
-                     b.mass[k], dt, kick, drift)
         if drift:
             for a in range(3):
                 if periodic[a] and (b.x[k, a] < lo[a] or b.x[k, a] >= hi[a]):
@@ -415,20 +463,27 @@ def body_pass(s, n, b, gravity, dt, collect, kick, drift, half_skin_sq, lo, hi, 
         omega[i, 1] = w1
         omega[i, 2] = w2
         if drift:
-            x[i, 0] = b.x[k, 0] + r0
-            x[i, 1] = b.x[k, 1] + r1
-            x[i, 2] = b.x[k, 2] + r2
-            for a in range(3):
-                if periodic[a] and (x[i, a] < lo[a] or x[i, a] >= hi[a]):
-                    x[i, a] -= box[a] * np.floor((x[i, a] - lo[a]) / box[a])
-            dx = x[i, 0] - x_build[i, 0]
-            dy = x[i, 1] - x_build[i, 1]
-            dz = x[i, 2] - x_build[i, 2]
-            if periodic[0]:
+            # the position kept in locals: the same values as read back from x, without reloading them
+            xi0 = b.x[k, 0] + r0
+            xi1 = b.x[k, 1] + r1
+            xi2 = b.x[k, 2] + r2
+            if per0 and (xi0 < lo[0] or xi0 >= hi[0]):
+                xi0 -= box[0] * np.floor((xi0 - lo[0]) / box[0])
+            if per1 and (xi1 < lo[1] or xi1 >= hi[1]):
+                xi1 -= box[1] * np.floor((xi1 - lo[1]) / box[1])
+            if per2 and (xi2 < lo[2] or xi2 >= hi[2]):
+                xi2 -= box[2] * np.floor((xi2 - lo[2]) / box[2])
+            x[i, 0] = xi0
+            x[i, 1] = xi1
+            x[i, 2] = xi2
+            dx = xi0 - x_build[i, 0]
+            dy = xi1 - x_build[i, 1]
+            dz = xi2 - x_build[i, 2]
+            if per0:
                 dx -= box[0] * np.rint(dx / box[0])
-            if periodic[1]:
+            if per1:
                 dy -= box[1] * np.rint(dy / box[1])
-            if periodic[2]:
+            if per2:
                 dz -= box[2] * np.rint(dz / box[2])
             d2 = dx * dx + dy * dy + dz * dz
             if d2 > half_skin_sq:

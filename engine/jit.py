@@ -31,6 +31,7 @@ import ast
 import hashlib
 import inspect
 import os
+import pickle
 import sys
 import textwrap
 import types
@@ -41,7 +42,7 @@ import numpy as np
 from filelock import FileLock, Timeout
 from numba.core import sigutils
 from numba.core import types as nbtypes
-from numba.core.caching import CompileResultCacheImpl, FunctionCache, _Cache, _CacheLocator
+from numba.core.caching import CompileResultCacheImpl, FunctionCache, IndexDataCacheFile, _Cache, _CacheLocator
 from numba.core.dispatcher import Dispatcher
 from numba.core.extending import _Intrinsic
 from numba.core.runtime import rtsys
@@ -207,6 +208,23 @@ class _ContentImpl(CompileResultCacheImpl):
         return f"{qualname}-{self.locator.get_disambiguator()}"
 
 
+#: what reading a cache file of another engine build may raise: its pickled signatures name the classes of the
+#: arguments (namedtuples such as engine.mesh.MeshList) by module and name, and a build that no longer has such a
+#: class, or has it elsewhere, cannot read them
+_UNREADABLE = (ImportError, AttributeError, FileNotFoundError, EOFError, pickle.UnpicklingError)
+
+
+class _TolerantIndex(IndexDataCacheFile):
+    """A function's cache index that another build wrote with signatures this build cannot read: empty (its
+    entries are compiled again and the index written anew), not an error that stops the run."""
+
+    def _load_index(self):
+        try:
+            return super()._load_index()
+        except _UNREADABLE:
+            return {}
+
+
 class _ContentCache(FunctionCache):
     """Numba's function cache with the content key as file name, stamp and index key."""
 
@@ -219,6 +237,8 @@ class _ContentCache(FunctionCache):
             super().__init__(py_func)
         finally:
             del _ContentLocator.pending[py_func]
+        self._cache_file = _TolerantIndex(cache_path=self._cache_path, filename_base=self._impl.filename_base,
+                                          source_stamp=self._impl.locator.get_source_stamp())
 
     def load_overload(self, sig, target_context):
         # Numba's refreshes the target context first, which imports every module of implementations (numpy's
@@ -228,9 +248,9 @@ class _ContentCache(FunctionCache):
         with self._guard_against_spurious_io_errors():
             try:
                 loaded = self._load_overload(sig, target_context)
-            except (ImportError, FileNotFoundError):
-                # the code was compiled in a generated module that no longer exists (engine/kernels.py), or a
-                # prune removed it meanwhile (engine/cache_limit.py): compile
+            except _UNREADABLE:
+                # the code was compiled in a generated module that no longer exists (engine/kernels.py), a prune
+                # removed it meanwhile (engine/cache_limit.py), or it names a class this build does not have: compile
                 return None
             if loaded is not None:  # used now: the last to go when the cache is pruned
                 cache_limit.touch(self._cache_file._index_path)

@@ -355,48 +355,81 @@ def triangle_distance(px, py, pz, tv, t):
 
 # ---------------------------------------------------------------- motion
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _placed_corner(tri_v0, t, k, px, py, pz, c, s, kx, ky, kz, sx, sy, sz, rotating):
+    """Corner k of triangle t: R (v0 - p0) + p0 + shift, R the rotation by the angle of cosine c and sine s
+    about the unit axis k (Rodrigues), or the identity."""
+    ux = tri_v0[t, k, 0] - px
+    uy = tri_v0[t, k, 1] - py
+    uz = tri_v0[t, k, 2] - pz
+    if rotating:
+        dot = kx * ux + ky * uy + kz * uz
+        rx = ux * c + (ky * uz - kz * uy) * s + kx * dot * (1.0 - c)
+        ry = uy * c + (kz * ux - kx * uz) * s + ky * dot * (1.0 - c)
+        rz = uz * c + (kx * uy - ky * ux) * s + kz * dot * (1.0 - c)
+        ux = rx
+        uy = ry
+        uz = rz
+    return ux + px + sx, uy + py + sy, uz + pz + sz
+
+
 @njit(cache=True, error_model="numpy")
 def place_vertices(tri_v0, tri_mesh, point0, axis, angle, shift, tri_v, tri_n, rotating):
-    """Current corners and normals of every triangle: v = R(angle) (v0 - p0) + p0 + shift (Rodrigues)."""
-    c = 1.0
-    s = 0.0
-    kx = ky = kz = 0.0
-    for t in range(tri_v0.shape[0]):
-        m = tri_mesh[t]
+    """Current corners and normals of every triangle: v = R(angle) (v0 - p0) + p0 + shift (Rodrigues).
+
+    The triangles of one mesh are consecutive (engine/walls/mesh_wall.py mesh_arrays): the cosine and sine of
+    its angle are taken once per run of triangles of one mesh, not per triangle (every step of a rotating
+    drum placed all its triangles with a sine and a cosine each), and the normal comes from the corners just
+    computed, not from reading them back."""
+    nt = tri_v0.shape[0]
+    first = 0
+    while first < nt:
+        m = tri_mesh[first]
+        last = first + 1
+        while last < nt and tri_mesh[last] == m:
+            last += 1
+        c = 1.0
+        s = 0.0
+        kx = ky = kz = 0.0
         if rotating:
             c = math.cos(angle[m])
             s = math.sin(angle[m])
             kx = axis[m, 0]
             ky = axis[m, 1]
             kz = axis[m, 2]
-        for k in range(3):
-            ux = tri_v0[t, k, 0] - point0[m, 0]
-            uy = tri_v0[t, k, 1] - point0[m, 1]
-            uz = tri_v0[t, k, 2] - point0[m, 2]
-            if rotating:
-                dot = kx * ux + ky * uy + kz * uz
-                rx = ux * c + (ky * uz - kz * uy) * s + kx * dot * (1.0 - c)
-                ry = uy * c + (kz * ux - kx * uz) * s + ky * dot * (1.0 - c)
-                rz = uz * c + (kx * uy - ky * ux) * s + kz * dot * (1.0 - c)
-                ux = rx
-                uy = ry
-                uz = rz
-            tri_v[t, k, 0] = ux + point0[m, 0] + shift[m, 0]
-            tri_v[t, k, 1] = uy + point0[m, 1] + shift[m, 1]
-            tri_v[t, k, 2] = uz + point0[m, 2] + shift[m, 2]
-        e1x = tri_v[t, 1, 0] - tri_v[t, 0, 0]
-        e1y = tri_v[t, 1, 1] - tri_v[t, 0, 1]
-        e1z = tri_v[t, 1, 2] - tri_v[t, 0, 2]
-        e2x = tri_v[t, 2, 0] - tri_v[t, 0, 0]
-        e2y = tri_v[t, 2, 1] - tri_v[t, 0, 1]
-        e2z = tri_v[t, 2, 2] - tri_v[t, 0, 2]
-        nx = e1y * e2z - e1z * e2y
-        ny = e1z * e2x - e1x * e2z
-        nz = e1x * e2y - e1y * e2x
-        norm = math.sqrt(nx * nx + ny * ny + nz * nz)
-        tri_n[t, 0] = nx / norm
-        tri_n[t, 1] = ny / norm
-        tri_n[t, 2] = nz / norm
+        px = point0[m, 0]
+        py = point0[m, 1]
+        pz = point0[m, 2]
+        sx = shift[m, 0]
+        sy = shift[m, 1]
+        sz = shift[m, 2]
+        for t in range(first, last):
+            ax, ay, az = _placed_corner(tri_v0, t, 0, px, py, pz, c, s, kx, ky, kz, sx, sy, sz, rotating)
+            bx, by, bz = _placed_corner(tri_v0, t, 1, px, py, pz, c, s, kx, ky, kz, sx, sy, sz, rotating)
+            cx, cy, cz = _placed_corner(tri_v0, t, 2, px, py, pz, c, s, kx, ky, kz, sx, sy, sz, rotating)
+            tri_v[t, 0, 0] = ax
+            tri_v[t, 0, 1] = ay
+            tri_v[t, 0, 2] = az
+            tri_v[t, 1, 0] = bx
+            tri_v[t, 1, 1] = by
+            tri_v[t, 1, 2] = bz
+            tri_v[t, 2, 0] = cx
+            tri_v[t, 2, 1] = cy
+            tri_v[t, 2, 2] = cz
+            e1x = bx - ax
+            e1y = by - ay
+            e1z = bz - az
+            e2x = cx - ax
+            e2y = cy - ay
+            e2z = cz - az
+            nx = e1y * e2z - e1z * e2y
+            ny = e1z * e2x - e1x * e2z
+            nz = e1x * e2y - e1y * e2x
+            norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+            tri_n[t, 0] = nx / norm
+            tri_n[t, 1] = ny / norm
+            tri_n[t, 2] = nz / norm
+        first = last
 
 
 @njit(cache=True, error_model="numpy")
@@ -474,22 +507,21 @@ def _cell_of(px, py, pz, origin, cell, nc):
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _scan(x, radius, n, tv, skin, origin, cell, nc, cell_start, cell_tri, start, out, write):
-    """Per particle: the triangles of its cell within radius + skin of its centre. Counts into start[i + 1]
-    (write False) or writes them into out from start[i] (write True)."""
+def _scan(x, radius, n, tv, skin, origin, cell, nc, cell_start, cell_tri, room, hits, count):
+    """Per particle: the triangles of its cell within radius + skin of its centre, in increasing order, written
+    into hits from room[i] (room for every triangle its cell lists), their number into count[i]. One distance
+    test per (particle, listed triangle): a pass that counted and a second that wrote tested each pair twice."""
     for i in prange(n):
         key = _cell_of(x[i, 0], x[i, 1], x[i, 2], origin, cell, nc)
-        count = 0
+        found = 0
         if key >= 0:
             reach = radius[i] + skin
             for k in range(cell_start[key], cell_start[key + 1]):
                 t = cell_tri[k]
                 if triangle_distance(x[i, 0], x[i, 1], x[i, 2], tv, t) < reach:
-                    if write:
-                        out[start[i] + count] = t
-                    count += 1
-        if not write:
-            start[i + 1] = count
+                    hits[room[i] + found] = t
+                    found += 1
+        count[i] = found
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
@@ -526,12 +558,20 @@ def mesh_rebuild(s, n, old, tv, skin):
     for i in range(n):
         rmax = max(rmax, radius[i])
     origin, cell, nc, cell_start, cell_tri = _triangle_grid(tv, rmax + skin, n)
-    tri = np.zeros(0, dtype=np.int32)
-    _scan(x, radius, n, tv, skin, origin, cell, nc, cell_start, cell_tri, start, tri, False)
+    room = np.empty(n + 1, dtype=np.int64)  # each particle's room in hits: as many as its cell lists
+    room[0] = 0
     for i in range(n):
-        start[i + 1] += start[i]
+        key = _cell_of(x[i, 0], x[i, 1], x[i, 2], origin, cell, nc)
+        room[i + 1] = room[i] + (cell_start[key + 1] - cell_start[key] if key >= 0 else 0)
+    hits = np.empty(room[n], dtype=np.int32)
+    count = np.empty(n, dtype=np.int64)
+    _scan(x, radius, n, tv, skin, origin, cell, nc, cell_start, cell_tri, room, hits, count)
+    for i in range(n):
+        start[i + 1] = start[i] + count[i]
     tri = np.empty(start[n], dtype=np.int32)
-    _scan(x, radius, n, tv, skin, origin, cell, nc, cell_start, cell_tri, start, tri, True)
+    for i in range(n):
+        for k in range(count[i]):
+            tri[start[i] + k] = hits[room[i] + k]
     hist = np.zeros((start[n], width))
     if width > 0 and old.tri.shape[0] > 0:
         top = 0

@@ -817,7 +817,7 @@ def superquadric_pass(sq, laws, walls, gravity, dt, char_vel, collect, kick, dri
     """The superquadrics' part of a step, in the order of the particle pass (engine/kernels.py INTEGRATE):
     with collect, the forces and torques at the current positions (gravity, pairs, planes); with kick, the
     second half kick (v += dt/2 F/m, L += dt/2 T); with drift, the next step's first half kick, the drift
-    x += dt v and the rotation of q (clumps.advance_body). Angular velocity from L after it."""
+    x += dt v and the rotation of q (clumps.advance_bodies). Angular velocity from L after it."""
     nb = len(sq.mass)
     if collect:
         for k in range(nb):
@@ -828,9 +828,8 @@ def superquadric_pass(sq, laws, walls, gravity, dt, char_vel, collect, kick, dri
         _pair_forces(sq, laws, dt, char_vel)
         _plane_forces(sq, laws, walls, dt, char_vel, record)
         _mesh_forces(sq, laws, walls, dt, char_vel, record)
-    for k in range(nb):
-        clumps.advance_body(sq.x[k], sq.v[k], sq.angmom[k], sq.q[k], sq.inertia[k], sq.omega[k], sq.force[k],
-                            sq.torque[k], sq.mass[k], dt, kick, drift)
+    clumps.advance_bodies(sq.x, sq.v, sq.angmom, sq.q, sq.inertia, sq.omega, sq.force, sq.torque, sq.mass,
+                          np.ones(nb, dtype=np.int64), dt, kick, drift)  # every body is present
 
 
 # ---------------------------------------------------------------- kernel hooks (engine/kernels.py STEP_LOOP)

@@ -102,6 +102,48 @@ def euler_top(t, inertia, w10, w30):
 TOP = [[0.0, 0.0, 0.0, 0.01], [0.03, 0.0, 0.0, 0.008], [0.0, 0.045, 0.0, 0.006]]
 
 
+def _advance_one(x, v, angmom, q, inertia, force, torque, mass, dt, kick, drift):
+    """One body's step, body by body in plain Python floats (the compiled functions' own Python source, run by
+    the interpreter): what advance_bodies must give to the byte."""
+    half_dt = 0.5 * dt
+    inv_m = 1.0 / mass
+    for _ in range(int(kick) + int(drift)):
+        for a in range(3):
+            v[a] += half_dt * force[a] * inv_m
+            angmom[a] += half_dt * torque[a]
+    if drift:
+        for a in range(3):
+            x[a] += dt * v[a]
+        q[:] = clumps.rotate.py_func(*q, *angmom, *inertia, dt)
+    return clumps._omega.py_func(*q, *angmom, *inertia)
+
+
+@pytest.mark.parametrize("kick, drift", [(True, True), (True, False), (False, True)])
+def test_bodies_advance_in_sweeps_as_body_by_body(kick, drift):
+    """advance_bodies takes the bodies BODY_CHUNK at a time (a full and a partial sweep here) and leaves the
+    absent ones (present 0) as they are; each present body gets the bytes of its own step computed alone."""
+    rng = np.random.default_rng(5)
+    nb = clumps.BODY_CHUNK + 37
+    arrays = dict(x=rng.normal(size=(nb, 3)), v=rng.normal(size=(nb, 3)), angmom=rng.normal(size=(nb, 3)) * 1e-6,
+                  q=clumps.random_quaternions(rng, nb), inertia=rng.uniform(1e-9, 4e-9, (nb, 3)),
+                  omega=np.zeros((nb, 3)), force=rng.normal(size=(nb, 3)), torque=rng.normal(size=(nb, 3)) * 1e-6,
+                  mass=rng.uniform(1e-4, 2e-4, nb))
+    present = (rng.random(nb) < 0.8).astype(np.int64)
+    before = {k: a.copy() for k, a in arrays.items()}
+    dt = 2e-5
+    clumps.advance_bodies(**arrays, present=present, dt=dt, kick=np.bool_(kick), drift=np.bool_(drift))
+    for k in range(nb):
+        if not present[k]:
+            assert all(np.array_equal(arrays[name][k], before[name][k]) for name in arrays), k
+            continue
+        x, v, angmom, q = (before[name][k].tolist() for name in ("x", "v", "angmom", "q"))
+        w = _advance_one(x, v, angmom, q, before["inertia"][k].tolist(), before["force"][k].tolist(),
+                         before["torque"][k].tolist(), float(before["mass"][k]), dt, kick, drift)
+        for name, value in (("x", x), ("v", v), ("angmom", angmom), ("q", q), ("omega", w)):
+            assert arrays[name][k].tobytes() == np.array(value, dtype=np.float64).tobytes(), (k, name)
+    assert not np.array_equal(arrays["q"], before["q"]) or not drift
+
+
 def test_free_asymmetric_top_follows_euler(engine_run):
     """Torque-free precession: the body-frame angular velocity against the exact solution, and the angular
     momentum conserved (to round-off: without torque the integrator never changes it)."""

@@ -237,3 +237,47 @@ def test_a_scene_compiles_each_pass_once_and_shares_what_two_combinations_have_a
     subprocess.run([sys.executable, "-m", "engine", "-in", "walled.json"], cwd=tmp_path, env=env, check=True,
                    capture_output=True)
     assert sorted(p.name for p in (cache / "jit").glob("*.nbc")) == compiled
+
+
+SHAPES = '''
+from collections import namedtuple
+Pair = namedtuple("Pair", ["a", "b"])
+{extra}
+'''
+USE = '''
+import sys
+sys.path.insert(0, sys.argv[1])
+sys.path.insert(0, sys.argv[2])
+import shapes
+from engine.jit import njit
+
+
+@njit(cache=True)
+def total(p):
+    return p.a + p.b
+
+
+if hasattr(shapes, "Extra"):
+    print(total(shapes.Extra(1.0, 2.0)))
+print(total(shapes.Pair(3.0, 4.0)))
+'''
+
+
+def test_a_cache_index_naming_a_class_this_build_lacks_is_compiled_anew(tmp_path):
+    """A function's cache index holds the signatures every build compiled it for; a namedtuple argument is
+    named there by module and class. A later build without that class (another commit of the engine, say)
+    compiles the function again instead of failing to read the index."""
+    import os
+    import subprocess
+
+    (tmp_path / "use.py").write_text(USE)
+    env = dict(os.environ, DEM_CACHE_DIR=str(tmp_path / "cache"))
+    engine_root = str(jit.Path(jit.__file__).parent.parent)
+    outputs = []
+    for extra in ('Extra = namedtuple("Extra", ["a", "b"])', "", ""):
+        (tmp_path / "shapes.py").write_text(SHAPES.format(extra=extra))
+        done = subprocess.run([sys.executable, str(tmp_path / "use.py"), engine_root, str(tmp_path)], env=env,
+                              capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr[-2000:]
+        outputs.append(done.stdout.split())
+    assert outputs == [["3.0", "7.0"], ["7.0"], ["7.0"]]

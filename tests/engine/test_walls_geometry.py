@@ -392,6 +392,54 @@ def test_mesh_contact_history_is_sparse():
     assert all(triangle_distance(*s.x[0], tris, t) < 0.005 for t in near)
 
 
+def test_mesh_list_is_every_triangle_within_reach_in_increasing_order():
+    """The sparse list of each particle (a cell grid of the triangles, one distance test per listed
+    triangle) against all triangles tested: exactly those within r + skin, in increasing order, none for a
+    particle outside the grid."""
+    from engine import state
+    from engine.mesh import empty_mesh_list, mesh_rebuild, triangle_distance
+
+    tris = np.concatenate([np.array(drum(0.04, 0.01, 24), dtype=np.float64),
+                           np.array(grid(-0.05, 0.05, -0.05, 0.05, 6, z=-0.045), dtype=np.float64)])
+    rng = np.random.default_rng(3)
+    n = 400
+    x = np.column_stack([rng.uniform(-0.05, 0.05, n), rng.uniform(-0.015, 0.015, n), rng.uniform(-0.05, 0.05, n)])
+    x[0] = [1.0, 1.0, 1.0]  # far outside the grid
+    radius = rng.uniform(0.001, 0.003, n)
+    s = state.append(state.empty(), x=x, radius=radius, pid=np.arange(1, n + 1))
+    skin = 0.001
+    lst = mesh_rebuild(s, n, empty_mesh_list(0, 3), tris, skin)
+    listed = 0
+    for i in range(n):
+        expected = [t for t in range(len(tris)) if triangle_distance(*x[i], tris, t) < radius[i] + skin]
+        assert lst.tri[lst.start[i]:lst.start[i + 1]].tolist() == expected, i
+        listed += len(expected)
+    assert listed > n // 4 and lst.start[1] == 0
+
+
+def test_placed_meshes_turn_each_about_its_own_axis():
+    """place_vertices with two meshes (their triangles in runs, one mesh in two runs): each corner is
+    R(angle) (v0 - p) + p + shift of its own mesh, the normal its triangle's, against rotation matrices."""
+    from engine.mesh import normals, place_vertices, rotation_matrix
+
+    rng = np.random.default_rng(4)
+    tri_v0 = rng.uniform(-0.05, 0.05, (9, 3, 3))
+    tri_mesh = np.array([0, 0, 1, 1, 1, 0, 0, 1, 1], dtype=np.int64)
+    point0 = np.array([[0.01, 0.0, -0.02], [0.0, 0.03, 0.0]])
+    axis = np.array([[0.0, 1.0, 0.0], [0.6, 0.0, 0.8]])
+    angle = np.array([0.7, -2.1])
+    shift = np.array([[0.0, 0.001, 0.0], [0.002, 0.0, -0.003]])
+    tri_v = np.empty_like(tri_v0)
+    tri_n = np.empty((9, 3))
+    place_vertices(tri_v0, tri_mesh, point0, axis, angle, shift, tri_v, tri_n, np.bool_(True))
+    for t, m in enumerate(tri_mesh):
+        expected = (tri_v0[t] - point0[m]) @ rotation_matrix(axis[m], angle[m]).T + point0[m] + shift[m]
+        assert tri_v[t] == pytest.approx(expected, abs=1e-15)
+    assert tri_n == pytest.approx(normals(tri_v), abs=1e-14)
+    place_vertices(tri_v0, tri_mesh, point0, axis, angle, shift, tri_v, tri_n, np.bool_(False))
+    assert tri_v == pytest.approx(tri_v0 + shift[tri_mesh][:, None, :], abs=1e-15)
+
+
 def _drum_program(folder, steps, restart_at=None, threads=1):
     """The rotating mesh drum as a program (a restart written at restart_at and a continuation read from it)."""
     L = 0.01
