@@ -244,3 +244,43 @@ def test_the_boundary_band_is_every_particle_listed_from_an_earlier_share(shares
         assert np.array_equal(nbr.band, expected) and list(nbr.shares) == [shares, count]
         assert np.all((s.f == 0.0) == expected[:, None].astype(bool)) and np.all(s.torque[expected == 1] == 0.0)
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+
+
+#: the engine as a program with the pair pass and the particle pass kept as two sweeps (kernels.Combination
+#: two_sweeps): the way every scene ran before each block's particles were integrated inside the pair pass
+TWO_SWEEPS = ("import dataclasses, sys\n"
+              "from engine import runner\n"
+              "combination = runner.combination\n"
+              "runner.combination = lambda sim, parallel=False: dataclasses.replace(combination(sim, parallel),"
+              " two_sweeps=True)\n"
+              "from engine.__main__ import main\n"
+              "sys.exit(main())\n")
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_the_particle_pass_inside_the_pair_pass_gives_the_bytes_of_two_sweeps(tmp_path, threads):
+    # each block's particles take their walls (planes, a cylinder) and integrate right after the block's rows;
+    # on 2 and 3 threads the boundary band's particles after every thread is done (kernels.FUSED_HEAD). The
+    # same scene in two sweeps (pair pass, then particle pass) must write the same bytes, every 50 steps and
+    # in the dumps, through rebuilds and the loss of a particle
+    import subprocess
+    import sys
+
+    from conftest import REPO
+
+    fused = engine(tmp_path / "fused", "-threads", str(threads))
+    folder = tmp_path / "two"
+    folder.mkdir()
+    (folder / "scene.json").write_text(json.dumps(SCENE))
+    env = {k: v for k, v in __import__("os").environ.items() if k not in ("NUMBA_NUM_THREADS", "PYTHONPATH")}
+    # numba is imported before the engine reads -threads: the pool is sized by the environment
+    env.update(PYTHONPATH=str(REPO), DEM_SERIAL_BELOW="0", NUMBA_NUM_THREADS=str(threads))
+    two = subprocess.run([sys.executable, "-c", TWO_SWEEPS, "-in", "scene.json", "-threads", str(threads)],
+                         cwd=folder, env=env, capture_output=True, text=True, timeout=900)
+    assert fused.returncode == 0, fused.stderr
+    assert two.returncode == 0, two.stderr
+    assert f"; threads {threads} (" in fused.stdout and f"; threads {threads} (" in two.stdout
+    for name in ["thermo.csv", "track.csv", "post/particles_3000.vtp", "post/particles_6000.vtp"]:
+        assert filecmp.cmp(tmp_path / "fused" / name, folder / name, shallow=False), name
+    rows = (folder / "thermo.csv").read_text().splitlines()
+    assert int(dict(zip(rows[0].split(","), rows[-1].split(",")))["contacts"]) > 300
