@@ -92,14 +92,6 @@ class _CombinationLogic:
         return any(getattr(self, shape.features[0]) for shape in SHAPES.values())
 
     @property
-    def fused(self) -> bool:
-        """Whether each block's particles take their walls and integrate inside the pair pass, right after the
-        block's rows (pair_particle_pass, FUSED_HEAD). Not with clumps (the body pass needs every member's
-        total before a member moves) nor superquadrics (their pass follows the particles'): these keep the
-        pair pass and the particle pass as two sweeps."""
-        return not (self.clumps or self.superquadrics or self.two_sweeps)
-
-    @property
     def history_width(self) -> int:
         """Doubles stored per contact (3 for the shear displacement, 3 for the EPSD2 rolling torque)."""
         return sum(law.history for law in self.laws())
@@ -109,9 +101,7 @@ class _CombinationLogic:
 #: (the law's name, models.SUBMODELS) and per option of the contact model (models.options), a flag per wall
 #: feature (walls.WALL_FEATURES), gravity, the periodic axes, clumps (multisphere bodies, engine/clumps.py) and
 #: superquadrics (engine/superquadrics.py; both not in the repr, which the generated source quotes:
-#: generate_source names them only where set), parallel (loops compiled for several threads) and two_sweeps (the
-#: pair pass and the particle pass kept apart where they could be fused, `fused`: tests and benchmarks compare
-#: the two; not in the repr either)
+#: generate_source names them only where set) and parallel (loops compiled for several threads)
 Combination = make_dataclass(
     "Combination",
     [(kind, str, field(default=sub.default)) for kind, sub in SUBMODELS.items()]
@@ -119,7 +109,7 @@ Combination = make_dataclass(
     + [(name, bool, field(default=False)) for name in WALL_FEATURES]
     + [("gravity", bool, field(default=False)), ("periodic", tuple, field(default=(False, False, False))),
        ("clumps", bool, field(default=False, repr=False)), ("superquadrics", bool, field(default=False, repr=False)),
-       ("parallel", bool, field(default=False)), ("two_sweeps", bool, field(default=False, repr=False))],
+       ("parallel", bool, field(default=False))],
     bases=(_CombinationLogic,), frozen=True)
 
 
@@ -229,8 +219,8 @@ RESET_HISTORY = "for h in range(${width}):\n    ${target} = 0.0\n"
 #: reassociated: benchmarks/engine_identical.py compares every run of testcases/).
 PAIR_FORCES = '''\
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def ${name}(${arguments}):
-    """${doc}"""
+def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
+    """Contact forces of the listed pairs (half list: each pair once, by i < j)."""
     ${unpack}
     ${same_body_head}
     nbr_start = nbr.start
@@ -243,15 +233,14 @@ def ${name}(${arguments}):
     pair_live = nbr.live
     nblocks = block_count(n, ${block})
     shares = ${shares}
-    ${particle_head}
-    for share in prange(shares):
+    for t in prange(shares):
         cin = np.empty((${nin}, ${chunk}))
         cout = np.empty((${nout}, ${chunk}))
         ck = np.empty(${chunk}, dtype=np.int64)
         cj = np.empty(${chunk}, dtype=np.int64)
         ci = np.empty(${chunk}, dtype=np.int64)
         ${far_alloc}
-        for blk in range(share * (nblocks // shares), (share + 1) * (nblocks // shares)):
+        for blk in range(t * (nblocks // shares), (t + 1) * (nblocks // shares)):
             b = blk * n // nblocks
             e = (blk + 1) * n // nblocks
             gi = b
@@ -320,8 +309,6 @@ def ${name}(${arguments}):
                     j = cj[cq]
                     ${sums}
             ${flush_end}
-            ${block_particles}
-    ${band_particles}
 '''
 #: the listed pairs of a sweep found apart (cfar[:mf]): contact history reset - only where it is not zero
 #: already (a test of its bits: a read, where a store would fetch and write back every pair's row), row not
@@ -459,9 +446,9 @@ if drift:
     dz = x2 - x_build[i, 2]
     d2 = dx * dx + dy * dy + dz * dz
     if d2 > half_skin_sq:
-        ${beyond_skin}
+        need += 1
     elif not d2 <= half_skin_sq:
-        ${not_finite}
+        bad = min(bad, i)
 else:
     ${store_totals}
 v[i, 0] = v0
@@ -557,54 +544,6 @@ if band[i]:
 else:
     ${read_sums}
 """
-#: the particle pass fused into the pair pass (`pair_particle_pass`, PAIR_FORCES with the slots below): a
-#: particle's force and torque are complete once every row q <= it is done (the list is a half list), so right
-#: after the rows of its block - on one thread for every particle, on several for every one not in the band (its
-#: pairs all lie in its own thread's share). The block's particles then take their walls and integrate while
-#: their lines are still in the caches, instead of in a second sweep over all of them. Integrating i early
-#: changes nothing another row reads: a later row q >= e reads position, velocity and spin only of its
-#: partners j > q > i and writes forces only of j; the walls read only i. A band particle is read by threads of
-#: earlier shares (as their partner j) and gets its total only when they are done: it takes its pass after the
-#: parallel loop (BAND_PARTICLES). The same operations on the same operands in the same order as the pair pass
-#: followed by the particle pass (READ_SUMS, GATHER), so the same bytes. Counts of particles beyond skin/2 and
-#: the first non-finite position go per share into arrays (no reduction across the share loop).
-FUSED_HEAD = """\
-${unpack_walls}
-mesh_start = mnbr.start
-mesh_tri = mnbr.tri
-mesh_hist = mnbr.hist
-mesh_touch = mnbr.touch
-${band_head}
-half_dt = 0.5 * dt
-share_need = np.zeros(shares, dtype=np.int64)
-share_bad = np.full(shares, n, dtype=np.int64)
-"""
-#: after a block's rows: its particles' walls and integration (on several threads the band's wait)
-BLOCK_PARTICLES = """\
-for i in range(b, e):
-    ${skip_band}
-    ${read_sums}
-    ${walls}
-    ${integrate}
-"""
-#: after the parallel loop: the band's particles (several threads), then the counts of every share
-BAND_PARTICLES = """\
-need = 0
-bad = n
-${band_loop}
-for sh in range(shares):
-    need += share_need[sh]
-    bad = min(bad, share_bad[sh])
-return need, bad
-"""
-BAND_LOOP = """\
-for member in prange(nbr.shares[1]):
-    i = members[member]
-    ${gather}
-    ${walls}
-    ${integrate}
-"""
-
 #: the end of particle i's pairs: its own sum added to what the pairs (i', i), i' < i, already subtracted from f[i]
 OWN_SUM = ("f[i, 0] += fix\nf[i, 1] += fiy\nf[i, 2] += fiz\ntorque[i, 0] += tix\ntorque[i, 1] += tiy\n"
            "torque[i, 2] += tiz\n")
@@ -643,10 +582,12 @@ def setup(s, n, nbr, mnbr, walls, pp, c, step, lost${bodies}${sq}):
     ${wall_setup}
     clear_forces(s, n, gravity)
     ${start_band}
+    pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies})
     record = True
     wall_part = np.zeros((n, ${nwalls}, 3))
     wall_tpart = np.zeros((n, ${nwalls}, 3))
-    ${forces}
+    particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, False, False, record, wall_part, wall_tpart,
+                  0.0, plane_near)
     ${body_setup}
     ${wall_force_sum}
     ${sq_setup}
@@ -696,7 +637,13 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost${bodies
             rebuilds += 1
         t2 = now()
         ${start_band}
-        ${forces}
+        pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies})
+        t3 = now()
+        record = k_step == nsteps - 1
+        wall_part = np.zeros((n if record else 0, ${nwalls}, 3))
+        wall_tpart = np.zeros((n if record else 0, ${nwalls}, 3))
+        need, first_bad = particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, on, not record, record,
+                                        wall_part, wall_tpart, half_skin_sq, plane_near)
         ${body_step}
         ${wall_force_sum}
         ${sq_step}
@@ -710,38 +657,6 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost${bodies
     timers[2] += modify
     return status, bad, done, rebuilds, n, nbr, mnbr
 '''
-
-#: a force evaluation in the step loop: the pair pass, then the particle pass (its time the modify phase); fused
-#: (Combination.fused), one call, its time the pair phase - the walls and integration of a block run between
-#: its rows and the next block's, and timing them apart would read the clock at every block
-STEP_FORCES = {False: """\
-pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies})
-t3 = now()
-record = k_step == nsteps - 1
-wall_part = np.zeros((n if record else 0, ${nwalls}, 3))
-wall_tpart = np.zeros((n if record else 0, ${nwalls}, 3))
-need, first_bad = particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, on, not record, record,
-                                wall_part, wall_tpart, half_skin_sq, plane_near)
-""", True: """\
-record = k_step == nsteps - 1
-wall_part = np.zeros((n if record else 0, ${nwalls}, 3))
-wall_tpart = np.zeros((n if record else 0, ${nwalls}, 3))
-need, first_bad = pair_particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, box, gravity, on, not record, record,
-                                     wall_part, wall_tpart, half_skin_sq, plane_near)
-t3 = now()
-"""}
-#: the forces at a run's start (setup: no kick, no drift, the totals stored)
-SETUP_FORCES = {False: """\
-pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies})
-particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, False, False, record, wall_part, wall_tpart,
-              0.0, plane_near)
-""", True: """\
-pair_particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, box, gravity, False, False, record, wall_part, wall_tpart,
-                   0.0, plane_near)
-"""}
-#: the arguments of pair_particle_pass
-FUSED_ARGUMENTS = ("s, n, nbr, mnbr, walls, pp, dt, char_vel, box, gravity, kick, drift, record, wall_part, wall_tpart, "
-                   "half_skin_sq, plane_near")
 
 CONSTANTS = """\
 dt = c.dt
@@ -875,9 +790,7 @@ def _band_sums(c: Combination, sums: str, parameters: int, width: int) -> str:
                   direct="\n".join(line for line in serial_sums.splitlines() if partner(line)))
 
 
-def _pair_forces(c: Combination, particles: dict | None = None) -> str:
-    """The pair pass (pair_forces) or, given the particle pass' code (_particle_code), the pair pass with each
-    block's particles integrated right after its rows (pair_particle_pass: FUSED_HEAD)."""
+def _pair_forces(c: Combination) -> str:
     periodic = "".join(f"d{name} -= box[{a}] * np.rint(d{name} / box[{a}])\n"
                        for a, name in enumerate("xyz") if c.periodic[a])
     rows = c.parallel  # several threads: pair rows for the partner, gathered in the particle pass
@@ -913,25 +826,6 @@ def _pair_forces(c: Combination, particles: dict | None = None) -> str:
         far = dict(far_alloc=f"cfar = np.empty({CONTACT_CHUNK}, dtype=np.int64)\nhist_bits = pair_hist.view(np.uint64)",
                    far_start="mf = 0",
                    apart="cfar[mf] = k\nmf += apart", far=render(FAR, row=row, reset_history=reset, zero_row=zero_row))
-    if particles is None:
-        fused = dict(name="pair_forces", arguments="s, n, nbr, pp, dt, char_vel, box" + (", bodies" if c.clumps else ""),
-                     doc="Contact forces of the listed pairs (half list: each pair once, by i < j).",
-                     particle_head=None, block_particles=None, band_particles=None)
-    else:
-        band = dict(members="members = nbr.members\nrstart = nbr.rstart", skip="if band[i]:\n    continue") if rows else \
-            dict(members=None, skip=None)
-        own = dict(particles, integrate=render(particles["integrate"], beyond_skin="share_need[share] += 1",
-                                               not_finite="share_bad[share] = min(share_bad[share], i)"))
-        loop = render(BAND_LOOP, **dict(particles, integrate=render(particles["integrate"], beyond_skin="need += 1",
-                                                                     not_finite="bad = min(bad, i)")))
-        fused = dict(name="pair_particle_pass", arguments=FUSED_ARGUMENTS,
-                     doc="The pair pass with each block's particles integrated after its rows; see the template "
-                         "FUSED_HEAD in engine.kernels. Returns (particles beyond skin/2, first non-finite position "
-                         "or n).",
-                     particle_head=render(FUSED_HEAD, unpack_walls=particles["unpack_walls"], band_head=band["members"]),
-                     block_particles=render(BLOCK_PARTICLES, skip_band=band["skip"], read_sums=READ_SUMS,
-                                            walls=own["walls"], integrate=own["integrate"]),
-                     band_particles=render(BAND_PARTICLES, band_loop=loop if rows else None))
     return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), gather_head=head, block=str(PAIR_BLOCK), chunk=str(CONTACT_CHUNK),
                   zero_sums=zero_sums,
                   nin=str(len(inputs)), nout=str(max(nout, 1)), gather=gather, load=load, store=store, sums=sums,
@@ -939,13 +833,12 @@ def _pair_forces(c: Combination, particles: dict | None = None) -> str:
                   flush=render(FLUSH[0], own_sum=OWN_SUM, zero_sums=zero_sums),
                   flush_end=render(FLUSH[1], own_sum=OWN_SUM, zero_sums=zero_sums),
                   band_head="band = nbr.band" if rows else None,
-                  shares="nbr.shares[0]" if rows else "1", **fused, **far, **body_slots)
+                  shares="nbr.shares[0]" if rows else "1",
+                  bodies=", bodies" if c.clumps else "", **far, **body_slots)
 
 
-def _particle_code(c: Combination, parts: list) -> dict:
-    """The particle pass' code per particle i: gather (a band particle's sums: GATHER on several threads),
-    band_gather (any particle's: BAND_GATHER), walls (the walls' contacts), integrate (INTEGRATE, its slots
-    beyond_skin and not_finite left to fill) and unpack_walls (the wall arrays' names)."""
+def _particle_pass(c: Combination, parts: list) -> str:
+    """The particle pass: gathering the pair rows (several threads), the walls' contacts, integration."""
     walls = unpack_walls = ""
     if c.has_walls:
         contacts = "".join(part.contacts(lambda place: contact_code(c, place),
@@ -957,13 +850,12 @@ def _particle_code(c: Combination, parts: list) -> dict:
         walls = render(WALLS, particle_head=head, wall_head=wall_head, contacts=contacts)
         unpack_walls = unpack("walls", WALL_FIELDS[:-2]) + "nplanes = plane_point.shape[0]\n"
     gravity_force = _gravity_force(c)
-    gather = band_gather = READ_SUMS
+    gather = ""
     if c.parallel:
         gather_torque = "".join(f"gtx += reaction[q, {o}]\ngty += reaction[q, {o + 1}]\ngtz += reaction[q, {o + 2}]\n"
                                 for name, o in c.reaction_columns().items() if name != "force")
-        gather = render(GATHER, clear="".join(f"gf{a} = {g}\n" for a, g in zip("xyz", gravity_force)),
-                        gather_torque=gather_torque)
-        band_gather = render(BAND_GATHER, read_sums=READ_SUMS, gather=gather)
+        gather = render(BAND_GATHER, read_sums=READ_SUMS, gather=render(
+            GATHER, clear="".join(f"gf{a} = {g}\n" for a, g in zip("xyz", gravity_force)), gather_torque=gather_torque))
     # gravity, zero (several threads: the band's are set to zero before the pair pass, engine/neighbor.py
     # start_band)
     clear = "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)) + \
@@ -971,26 +863,16 @@ def _particle_code(c: Combination, parts: list) -> dict:
     if c.clumps:  # a member's totals stay for its body's pass (engine/clumps.py)
         clear = clumps.member_clear(clear, STORE_TOTALS)
     load = "".join(f"{local}{a} = {array}[i, {a}]\n" for local, array in (("v", "v"), ("w", "omega")) for a in range(3))
-    integrate = render(INTEGRATE, clear=clear, store_totals=STORE_TOTALS, half_kick=HALF_KICK, load=load,
-                       beyond_skin="${beyond_skin}", not_finite="${not_finite}")
-    return dict(gather=gather, band_gather=band_gather, walls=walls, integrate=integrate, unpack_walls=unpack_walls)
-
-
-def _particle_pass(c: Combination, parts: list) -> str:
-    """The particle pass: gathering the pair rows (several threads), the walls' contacts, integration."""
-    code = _particle_code(c, parts)
-    integrate = render(code["integrate"], beyond_skin="need += 1", not_finite="bad = min(bad, i)")
-    return render(PARTICLE_PASS, unpack=unpack("s", FIELD_NAMES), unpack_walls=code["unpack_walls"],
-                  gather=code["band_gather"], walls=code["walls"], integrate=integrate, read_totals=READ_TOTALS)
+    integrate = render(INTEGRATE, clear=clear, store_totals=STORE_TOTALS, half_kick=HALF_KICK, load=load)
+    return render(PARTICLE_PASS, unpack=unpack("s", FIELD_NAMES), unpack_walls=unpack_walls,
+                  gather=gather or READ_SUMS, walls=walls, integrate=integrate, read_totals=READ_TOTALS)
 
 
 def _step_loop(c: Combination, parts: list, template: str) -> str:
     """The step loop (STEP_LOOP) or the setup (SETUP) of combination c."""
     def joined(hook):
         return "".join(getattr(part, hook) for part in parts)
-    forces = (STEP_FORCES if template == STEP_LOOP else SETUP_FORCES)[c.fused]
-    forces = render(forces, bodies=", bodies" if c.clumps else "", nwalls="walls.force.shape[0]" if c.has_walls else "0")
-    return render(template, constants=CONSTANTS, forces=forces, move_walls=joined("move"), wall_travel=joined("travel"),
+    return render(template, constants=CONSTANTS, move_walls=joined("move"), wall_travel=joined("travel"),
                   wall_setup=joined("setup"), wall_start=joined("at_start"), wall_rebuild=joined("after_rebuild"),
                   nwalls="walls.force.shape[0]" if c.has_walls else "0",
                   start_band=f"start_band(nbr, n, {PAIR_BLOCK}, s.f, s.torque)" if c.parallel else None,
@@ -1009,8 +891,6 @@ def generate_source(c: Combination) -> str:
     """Python source of the compiled kernels for combination c."""
     parts = [shape.kernel(c) for shape in SHAPES.values()]
     pair_forces, particle_pass = _pair_forces(c), _particle_pass(c, parts)
-    if c.fused:  # the two passes stay beside it: drift_pass, and tests and benchmarks call them
-        pair_forces += "\n\n" + _pair_forces(c, _particle_code(c, parts))
     setup, step_loop = _step_loop(c, parts, SETUP), _step_loop(c, parts, STEP_LOOP)
     clear_forces = render(CLEAR_FORCES, clear="".join(
         f"f[i, {a}] = {g}\n" for a, g in enumerate(_gravity_force(c))))
@@ -1026,7 +906,7 @@ def generate_source(c: Combination) -> str:
     imports = "".join(f"from {fn.__module__} import {fn.__name__}\n" for fn in called if fn.__name__ + "(" in body)
     # the clumps and superquadrics flags are named only where set: a scene of spheres has the source of an
     # engine without them
-    named = "".join(f" with {flag}" for flag in ("clumps", "superquadrics", "two_sweeps") if getattr(c, flag))
+    named = "".join(f" with {flag}" for flag in ("clumps", "superquadrics") if getattr(c, flag))
     source = render(MODULE, combination=repr(c) + named, imports=imports, pair_forces=pair_forces,
                     particle_pass=particle_pass, clear_forces=clear_forces, setup=setup, step_loop=step_loop,
                     wall_functions="".join(part.functions for part in parts))
