@@ -147,6 +147,7 @@ def start_band(nbr, n, size, f, torque):
         nbr.shares[0] = shares
     for m in range(nbr.shares[1]):
         p = nbr.members[m]
+        nbr.own[p] = 1
         for a in range(3):
             f[p, a] = 0.0
             torque[p, a] = 0.0
