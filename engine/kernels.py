@@ -334,8 +334,9 @@ if pair_live[k]:
 """
 #: the end of particle cur's pairs (the next contact's owner, or the end of the block e): its own sum is added
 #: only when it had a contact as i (mine) - adding +0.0 sums would change nothing but -0.0, and the particle pass
-#: reads f + 0.0 (READ_SUMS). A band particle's force starts at +0.0 (engine/neighbor.py start_band): f holds its
-#: own sum alone, added to gravity and the reaction rows by the particle pass (GATHER)
+#: reads f + 0.0 (READ_SUMS), assigned to gravity when nothing touched it before (OWN_SUM). A band particle's force
+#: starts at +0.0 and its own byte at 1 (engine/neighbor.py start_band): f holds its own sum alone, added to
+#: gravity and the reaction rows by the particle pass (GATHER)
 FLUSH = ("""\
 if cur < owner:
     if mine:
@@ -422,9 +423,9 @@ else:
 #: second half kick of v and omega (I = 0.4 m r^2); with drift, the next step's first half kick and the drift,
 #: then the neighbor check (moved more than skin/2: rebuild; a non-finite position fails every comparison: the
 #: run stops naming the particle). Without drift (a chunk's last step, setup) the totals are stored for Python
-#: to read; with drift they are read for the last time here: on one thread the force and torque start the
-#: next evaluation in the same pass (${clear}: gravity, zero; no separate pass to clear them), on several they
-#: are not written at all (the pair pass assigns them; a clump member's are stored for its body). v, omega, x
+#: to read; with drift they are not written at all: nothing clears them for the next evaluation, whose pair pass
+#: assigns gravity + the first share (OWN_SUM, PARTNER_SHARE) and whose particle pass computes gravity for a
+#: particle nothing touched (READ_SUMS) - a clump member's are stored for its body (${clear}). v, omega, x
 #: are kept in locals between the kicks and the drift - the same operations in the same order as updating the
 #: arrays in place, so the same bytes, without reloading what a store might have changed
 INTEGRATE = """\
@@ -581,7 +582,9 @@ else:
     torque[i, 1] = 0.0 + tiy
     torque[i, 2] = 0.0 + tiz
 """
-#: forces start at gravity (F = m g) before the pairs add to them (several threads: the band at zero, see FLUSH)
+#: forces at gravity (F = m g) at a run's start (setup). The pair pass no longer reads them - its first share of a
+#: particle assigns gravity + the share (OWN_SUM, PARTNER_SHARE), the particle pass computes gravity for one
+#: nothing touched (READ_SUMS) - so these values are overwritten or never read; a pass over n per run
 CLEAR_FORCES = '''\
 @njit(cache=True, error_model="numpy")
 def clear_forces(s, n, gravity):
