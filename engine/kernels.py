@@ -795,15 +795,16 @@ def _gravity_force(c: Combination) -> tuple:
     return "0.0", "0.0", "0.0"
 
 
-#: the partner's share of a contact straight into its force and torque: added when something of this evaluation is
-#: there already (own[j] 1), else assigned, its first term gravity and zero (what adding to the m g and 0.0 the
-#: drift once stored gave: the same bytes, without the drift storing them; engine/neighbor.py NeighborList own)
+#: the partner's share of a contact straight into its force and torque: added to what is there when something of
+#: this evaluation is (own[j] 1), else to gravity and zero (what adding to the m g and 0.0 the drift once stored
+#: gave: the same bytes, without the drift storing them; engine/neighbor.py NeighborList own). Without a branch:
+#: in a dense packing a particle is the partner of about three contacts, the first of which finds the byte 0 - a
+#: branch no predictor guesses; the values are loaded and the start chosen by a select
 PARTNER_SHARE = """\
-if own[j]:
-    ${added}
-else:
-    own[j] = 1
-    ${first}
+oj = own[j]
+own[j] = 1
+${loads}
+${lines}
 """
 
 
@@ -811,18 +812,24 @@ def _partner_share(lines: list, c: Combination) -> str:
     """PARTNER_SHARE for the sums sweep's lines adding to j's force and torque (in their order): in the branch of
     a first share, each array element's first line assigns its base (gravity on j, 0.0) with the line's term."""
     gravity = [g.replace("[i]", "[j]") for g in _gravity_force(c)]
-    first, seen = [], set()
+    loads, out, seen = [], [], set()
     for line in lines:
         m = _SUM_LINE.match(line)
         if m["op"] not in ("+=", "-="):
             raise ValueError(f"a partner's share neither adds nor subtracts: {line}")
         if m["target"] in seen:
-            first.append(line)
+            out.append(line)
             continue
+        axis = m["target"][-2]  # f[j, a], torque[j, a]
+        name = ("pf" if m["target"].startswith("f[j") else "pt") + axis
         seen.add(m["target"])
-        base = gravity[int(m["target"][5])] if m["target"].startswith("f[j") else "0.0"
-        first.append(f"{m['target']} = {base} {m['op'][0]} {m['expr']}")
-    return render(PARTNER_SHARE, added="\n".join(lines), first="\n".join(first))
+        base = gravity[int(axis)] if m["target"].startswith("f[j") else "0.0"
+        loads.append(f"{name} = {m['target']}")
+        if base != "0.0":  # computed whatever the byte: a select of two values, not a load under a branch
+            loads.append(f"pg{axis} = {base}")
+            base = f"pg{axis}"
+        out.append(f"{m['target']} = ({name} if oj else {base}) {m['op'][0]} {m['expr']}")
+    return render(PARTNER_SHARE, loads="\n".join(loads), lines="\n".join(out))
 
 
 #: several threads, the partner's share of a contact: a particle of the band (engine/neighbor.py boundary_band)
