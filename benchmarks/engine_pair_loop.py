@@ -62,10 +62,6 @@ box = c.hi - c.lo
 s, n, nbr = sim.state, sim.n, sim.nbr
 lost = lost_record(n)
 n, nbr = m.rebuild(s, n, nbr, c.lo, c.hi, c.periodic, c.skin, sim.step, lost, c.history_transfer)
-# forces as a step's pair pass finds them: m g and zero (stored by the drift before forces were no longer cleared,
-# engine/kernels.py OWN_SUM; assigned by the first share since: the same bytes)
-s.f[:] = s.mass[:, None] * c.gravity
-s.torque[:] = 0.0
 f0, t0_, h0 = s.f.copy(), s.torque.copy(), nbr.hist.copy()
 # several threads: a revision with the boundary band (engine/neighbor.py start_band) computes it before the pass
 start_band = getattr(m, "start_band", None) if threads > 1 else None
@@ -73,11 +69,7 @@ if start_band is not None:
     from engine.kernels import PAIR_BLOCK
     start_band(nbr, n, PAIR_BLOCK, s.f, s.torque)
     f0, t0_ = s.f.copy(), s.torque.copy()
-# since forces are no longer cleared (engine/kernels.py OWN_SUM) the pair pass takes gravity; before, it did not
-import inspect
-extra = (c.gravity,) if "gravity" in inspect.signature(m.pair_forces.py_func).parameters else ()
-own0 = nbr.own.copy()
-m.pair_forces(s, n, nbr, kernel.pp, c.dt, c.characteristic_velocity, box, *extra)  # compiles or loads
+m.pair_forces(s, n, nbr, kernel.pp, c.dt, c.characteristic_velocity, box)  # compiles or loads
 # what the particle pass reads of the pair pass' output: a reaction row only where its pair touches, f and
 # torque (several threads) only of a particle with a contact as i, f + 0.0 (one thread); a revision without
 # `touch` and `own` (older) wrote zeros there
@@ -95,9 +87,8 @@ for _ in range(calls):  # every call from the same forces and history: the same 
     s.f[:] = f0
     s.torque[:] = t0_
     nbr.hist[:] = h0
-    nbr.own[:] = own0
     t = time.process_time()
-    m.pair_forces(s, n, nbr, kernel.pp, c.dt, c.characteristic_velocity, box, *extra)
+    m.pair_forces(s, n, nbr, kernel.pp, c.dt, c.characteristic_velocity, box)
     pair += time.process_time() - t
 pair /= calls * n
 rebuilds = max(1, calls // 20)

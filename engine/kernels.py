@@ -219,7 +219,7 @@ RESET_HISTORY = "for h in range(${width}):\n    ${target} = 0.0\n"
 #: reassociated: benchmarks/engine_identical.py compares every run of testcases/).
 PAIR_FORCES = '''\
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def pair_forces(s, n, nbr, pp, dt, char_vel, box, gravity${bodies}):
+def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
     """Contact forces of the listed pairs (half list: each pair once, by i < j)."""
     ${unpack}
     ${same_body_head}
@@ -231,7 +231,6 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box, gravity${bodies}):
     pair_touch = nbr.touch
     ${band_head}
     pair_live = nbr.live
-    own = nbr.own
     nblocks = block_count(n, ${block})
     shares = ${shares}
     for t in prange(shares):
@@ -334,9 +333,8 @@ if pair_live[k]:
 """
 #: the end of particle cur's pairs (the next contact's owner, or the end of the block e): its own sum is added
 #: only when it had a contact as i (mine) - adding +0.0 sums would change nothing but -0.0, and the particle pass
-#: reads f + 0.0 (READ_SUMS), assigned to gravity when nothing touched it before (OWN_SUM). A band particle's force
-#: starts at +0.0 and its own byte at 1 (engine/neighbor.py start_band): f holds its own sum alone, added to
-#: gravity and the reaction rows by the particle pass (GATHER)
+#: reads f + 0.0 (READ_SUMS). A band particle's force starts at +0.0 (engine/neighbor.py start_band): f holds its
+#: own sum alone, added to gravity and the reaction rows by the particle pass (GATHER)
 FLUSH = ("""\
 if cur < owner:
     if mine:
@@ -423,9 +421,9 @@ else:
 #: second half kick of v and omega (I = 0.4 m r^2); with drift, the next step's first half kick and the drift,
 #: then the neighbor check (moved more than skin/2: rebuild; a non-finite position fails every comparison: the
 #: run stops naming the particle). Without drift (a chunk's last step, setup) the totals are stored for Python
-#: to read; with drift they are not written at all: nothing clears them for the next evaluation, whose pair pass
-#: assigns gravity + the first share (OWN_SUM, PARTNER_SHARE) and whose particle pass computes gravity for a
-#: particle nothing touched (READ_SUMS) - a clump member's are stored for its body (${clear}). v, omega, x
+#: to read; with drift they are read for the last time here: on one thread the force and torque start the
+#: next evaluation in the same pass (${clear}: gravity, zero; no separate pass to clear them), on several they
+#: are not written at all (the pair pass assigns them; a clump member's are stored for its body). v, omega, x
 #: are kept in locals between the kicks and the drift - the same operations in the same order as updating the
 #: arrays in place, so the same bytes, without reloading what a store might have changed
 INTEGRATE = """\
@@ -469,22 +467,8 @@ READ_TOTALS = ("ftot0 = f[i, 0]\nftot1 = f[i, 1]\nftot2 = f[i, 2]\nttot0 = torqu
                "ttot2 = torque[i, 2]\n")
 #: one thread, no gathering: the totals start from what the pair pass left in f and torque, + 0.0: the pair pass
 #: adds a particle's own sum (never -0.0: it starts at +0.0) only when it had a contact as i, and x + 0.0 is x
-#: but for -0.0 - exactly what adding a sum of +0.0 gave before (OWN_SUM, FLUSH). A particle nothing touched in
-#: the pair pass (own[i] 0: engine/neighbor.py NeighborList) has gravity and zero, computed here: its force and
-#: torque arrays hold nothing of this evaluation and are neither read nor written (what reading m g and 0.0
-#: stored at the last drift gave, + 0.0)
-READ_SUMS = """\
-if own[i]:
-    own[i] = 0
-${sums}
-else:
-    ftot0 = ${g0} + 0.0
-    ftot1 = ${g1} + 0.0
-    ftot2 = ${g2} + 0.0
-    ttot0 = 0.0
-    ttot1 = 0.0
-    ttot2 = 0.0
-""".replace("${sums}", "".join(f"    {line} + 0.0\n" for line in READ_TOTALS.splitlines()).rstrip("\n"))
+#: but for -0.0 - exactly what adding a sum of +0.0 gave before (OWN_SUM, FLUSH)
+READ_SUMS = "".join(f"{line} + 0.0\n" for line in READ_TOTALS.splitlines())
 
 #: pass 2 of a force evaluation, per particle: its force and torque sums (READ_SUMS; on several threads a
 #: particle of the band gathers them, GATHER); then walls, the second half kick and (but at a chunk's last step)
@@ -504,7 +488,6 @@ def particle_pass(s, n, nbr, mnbr, walls, pp, dt, char_vel, gravity, kick, drift
     reaction = nbr.reaction
     pair_touch = nbr.touch
     band = nbr.band
-    own = nbr.own
     half_dt = 0.5 * dt
     need = 0
     bad = n
@@ -537,7 +520,6 @@ def drift_pass(s, n, dt, half_skin_sq, gravity):
 #: subtracting +0.0 from a force or adding it to a torque sum (which starts at +0.0, so is never -0.0) left it
 #: as it was
 GATHER = """\
-own[i] = 0
 ${clear}
 gtx = 0.0
 gty = 0.0
@@ -562,29 +544,10 @@ if band[i]:
 else:
     ${read_sums}
 """
-#: the end of particle i's pairs: its own sum added to what the pairs (i', i), i' < i, already subtracted from f[i];
-#: when none did (own[i] 0), to gravity and zero, computed here: the same operands as adding to the m g and 0.0
-#: the drift once stored, without storing them (engine/neighbor.py NeighborList own)
-OWN_SUM = """\
-if own[i]:
-    f[i, 0] += fix
-    f[i, 1] += fiy
-    f[i, 2] += fiz
-    torque[i, 0] += tix
-    torque[i, 1] += tiy
-    torque[i, 2] += tiz
-else:
-    own[i] = 1
-    f[i, 0] = ${g0} + fix
-    f[i, 1] = ${g1} + fiy
-    f[i, 2] = ${g2} + fiz
-    torque[i, 0] = 0.0 + tix
-    torque[i, 1] = 0.0 + tiy
-    torque[i, 2] = 0.0 + tiz
-"""
-#: forces at gravity (F = m g) at a run's start (setup). The pair pass no longer reads them - its first share of a
-#: particle assigns gravity + the share (OWN_SUM, PARTNER_SHARE), the particle pass computes gravity for one
-#: nothing touched (READ_SUMS) - so these values are overwritten or never read; a pass over n per run
+#: the end of particle i's pairs: its own sum added to what the pairs (i', i), i' < i, already subtracted from f[i]
+OWN_SUM = ("f[i, 0] += fix\nf[i, 1] += fiy\nf[i, 2] += fiz\ntorque[i, 0] += tix\ntorque[i, 1] += tiy\n"
+           "torque[i, 2] += tiz\n")
+#: forces start at gravity (F = m g) before the pairs add to them (several threads: the band at zero, see FLUSH)
 CLEAR_FORCES = '''\
 @njit(cache=True, error_model="numpy")
 def clear_forces(s, n, gravity):
@@ -619,7 +582,7 @@ def setup(s, n, nbr, mnbr, walls, pp, c, step, lost${bodies}${sq}):
     ${wall_setup}
     clear_forces(s, n, gravity)
     ${start_band}
-    pair_forces(s, n, nbr, pp, dt, char_vel, box, gravity${bodies})
+    pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies})
     record = True
     wall_part = np.zeros((n, ${nwalls}, 3))
     wall_tpart = np.zeros((n, ${nwalls}, 3))
@@ -674,7 +637,7 @@ def run_steps(s, n, nbr, mnbr, walls, pp, c, step0, nsteps, timers, lost${bodies
             rebuilds += 1
         t2 = now()
         ${start_band}
-        pair_forces(s, n, nbr, pp, dt, char_vel, box, gravity${bodies})
+        pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies})
         t3 = now()
         record = k_step == nsteps - 1
         wall_part = np.zeros((n if record else 0, ${nwalls}, 3))
@@ -795,43 +758,6 @@ def _gravity_force(c: Combination) -> tuple:
     return "0.0", "0.0", "0.0"
 
 
-#: the partner's share of a contact straight into its force and torque: added to what is there when something of
-#: this evaluation is (own[j] 1), else to gravity and zero (what adding to the m g and 0.0 the drift once stored
-#: gave: the same bytes, without the drift storing them; engine/neighbor.py NeighborList own). Without a branch:
-#: in a dense packing a particle is the partner of about three contacts, the first of which finds the byte 0 - a
-#: branch no predictor guesses; the values are loaded and the start chosen by a select
-PARTNER_SHARE = """\
-oj = own[j]
-own[j] = 1
-${loads}
-${lines}
-"""
-
-
-def _partner_share(lines: list, c: Combination) -> str:
-    """PARTNER_SHARE for the sums sweep's lines adding to j's force and torque (in their order): in the branch of
-    a first share, each array element's first line assigns its base (gravity on j, 0.0) with the line's term."""
-    gravity = [g.replace("[i]", "[j]") for g in _gravity_force(c)]
-    loads, out, seen = [], [], set()
-    for line in lines:
-        m = _SUM_LINE.match(line)
-        if m["op"] not in ("+=", "-="):
-            raise ValueError(f"a partner's share neither adds nor subtracts: {line}")
-        if m["target"] in seen:
-            out.append(line)
-            continue
-        axis = m["target"][-2]  # f[j, a], torque[j, a]
-        name = ("pf" if m["target"].startswith("f[j") else "pt") + axis
-        seen.add(m["target"])
-        base = gravity[int(axis)] if m["target"].startswith("f[j") else "0.0"
-        loads.append(f"{name} = {m['target']}")
-        if base != "0.0":  # computed whatever the byte: a select of two values, not a load under a branch
-            loads.append(f"pg{axis} = {base}")
-            base = f"pg{axis}"
-        out.append(f"{m['target']} = ({name} if oj else {base}) {m['op'][0]} {m['expr']}")
-    return render(PARTNER_SHARE, loads="\n".join(loads), lines="\n".join(out))
-
-
 #: several threads, the partner's share of a contact: a particle of the band (engine/neighbor.py boundary_band)
 #: takes it through the pair's reaction row, marked touching; any other particle straight into its force and
 #: torque, as on one thread (its thread owns every pair that lists it)
@@ -861,7 +787,7 @@ def _band_sums(c: Combination, sums: str, parameters: int, width: int) -> str:
     if own != [line for line in serial_sums.splitlines() if line and not partner(line)]:
         raise ValueError("the one-thread and several-thread own sums differ")
     return render(BAND_SUMS, own="\n".join(own), rows="\n".join(line for line in sums.splitlines() if partner(line)),
-                  direct=_partner_share([line for line in serial_sums.splitlines() if partner(line)], c))
+                  direct="\n".join(line for line in serial_sums.splitlines() if partner(line)))
 
 
 def _pair_forces(c: Combination) -> str:
@@ -885,10 +811,6 @@ def _pair_forces(c: Combination) -> str:
     contact, sums, nout = split_contact(contact_code(c, "pair"), nparam, width)
     if rows:
         sums = _band_sums(c, sums, nparam, width)
-    else:  # i's own sums, then j's share (different sums: the order between them changes no byte)
-        lines = [line for line in sums.splitlines() if line]
-        partner = [line for line in lines if line.startswith(("f[j", "torque[j"))]
-        sums = "".join(line + "\n" for line in lines if line not in partner) + _partner_share(partner, c)
     sums = "".join(f"pair_hist[k, {h}] = cin[{first_hist + h}, cq]\n" for h in range(width)) + sums
     if width:
         sums = "pair_live[k] = 1\n" + sums
@@ -904,13 +826,12 @@ def _pair_forces(c: Combination) -> str:
         far = dict(far_alloc=f"cfar = np.empty({CONTACT_CHUNK}, dtype=np.int64)\nhist_bits = pair_hist.view(np.uint64)",
                    far_start="mf = 0",
                    apart="cfar[mf] = k\nmf += apart", far=render(FAR, row=row, reset_history=reset, zero_row=zero_row))
-    own_sum = render(OWN_SUM, **{f"g{a}": g for a, g in enumerate(_gravity_force(c))})
     return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), gather_head=head, block=str(PAIR_BLOCK), chunk=str(CONTACT_CHUNK),
                   zero_sums=zero_sums,
                   nin=str(len(inputs)), nout=str(max(nout, 1)), gather=gather, load=load, store=store, sums=sums,
                   periodic_image=periodic, row=row, contact=contact,
-                  flush=render(FLUSH[0], own_sum=own_sum, zero_sums=zero_sums),
-                  flush_end=render(FLUSH[1], own_sum=own_sum, zero_sums=zero_sums),
+                  flush=render(FLUSH[0], own_sum=OWN_SUM, zero_sums=zero_sums),
+                  flush_end=render(FLUSH[1], own_sum=OWN_SUM, zero_sums=zero_sums),
                   band_head="band = nbr.band" if rows else None,
                   shares="nbr.shares[0]" if rows else "1",
                   bodies=", bodies" if c.clumps else "", **far, **body_slots)
@@ -929,22 +850,22 @@ def _particle_pass(c: Combination, parts: list) -> str:
         walls = render(WALLS, particle_head=head, wall_head=wall_head, contacts=contacts)
         unpack_walls = unpack("walls", WALL_FIELDS[:-2]) + "nplanes = plane_point.shape[0]\n"
     gravity_force = _gravity_force(c)
-    read_sums = render(READ_SUMS, **{f"g{a}": g for a, g in enumerate(gravity_force)})
     gather = ""
     if c.parallel:
         gather_torque = "".join(f"gtx += reaction[q, {o}]\ngty += reaction[q, {o + 1}]\ngtz += reaction[q, {o + 2}]\n"
                                 for name, o in c.reaction_columns().items() if name != "force")
-        gather = render(BAND_GATHER, read_sums=read_sums, gather=render(
+        gather = render(BAND_GATHER, read_sums=READ_SUMS, gather=render(
             GATHER, clear="".join(f"gf{a} = {g}\n" for a, g in zip("xyz", gravity_force)), gather_torque=gather_torque))
-    # the next evaluation's forces are not cleared: its pair pass assigns gravity + the first share (own, OWN_SUM,
-    # PARTNER_SHARE), and the particle pass computes gravity for a particle nothing touched (READ_SUMS)
-    clear = ""
+    # gravity, zero (several threads: the band's are set to zero before the pair pass, engine/neighbor.py
+    # start_band)
+    clear = "".join(f"f[i, {a}] = {g}\n" for a, g in enumerate(gravity_force)) + \
+        "torque[i, 0] = 0.0\ntorque[i, 1] = 0.0\ntorque[i, 2] = 0.0\n"
     if c.clumps:  # a member's totals stay for its body's pass (engine/clumps.py)
         clear = clumps.member_clear(clear, STORE_TOTALS)
     load = "".join(f"{local}{a} = {array}[i, {a}]\n" for local, array in (("v", "v"), ("w", "omega")) for a in range(3))
     integrate = render(INTEGRATE, clear=clear, store_totals=STORE_TOTALS, half_kick=HALF_KICK, load=load)
     return render(PARTICLE_PASS, unpack=unpack("s", FIELD_NAMES), unpack_walls=unpack_walls,
-                  gather=gather or read_sums, walls=walls, integrate=integrate, read_totals=READ_TOTALS)
+                  gather=gather or READ_SUMS, walls=walls, integrate=integrate, read_totals=READ_TOTALS)
 
 
 def _step_loop(c: Combination, parts: list, template: str) -> str:

@@ -1,8 +1,7 @@
 """Modifiers (after LAMMPS' fixes): created by `create modifier`, active once fixed.
 
 Each kind is a class in `MODIFIERS`; a new kind is a new class. A modifier either adds to the forces inside
-the compiled step loop (gravity: its acceleration is each particle's first force term, engine/kernels.py
-OWN_SUM and READ_SUMS) or acts at output steps,
+the compiled step loop (gravity: its acceleration enters the kernel's force clearing) or acts at output steps,
 every `every` steps (print, vtk, restart), outside compiled code. Insert and outlet modifiers change the
 particle set at their steps (`change_particles`, before the output of that step; engine/insertion.py).
 """

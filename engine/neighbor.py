@@ -37,12 +37,8 @@ PARALLEL = dict(prange=True, numpy=False, reduction=False, setitem=False, stenci
 #: takes from each pair this step (force, and torques), in partner order: rows rstart[p]..rstart[p+1] (rstart:
 #: n+1) belong to the pairs (i, p), i increasing; rslot[k] is the row of pair k; touch (pairs, uint8, in the
 #: rows' order): 1 when the row's pair is in contact at this step (its reaction row holds its share), 0 when not
-#: (its row is not written: it holds what an earlier step left); own (n, uint8): 1 while particle i's force and
-#: torque hold this force evaluation's sums (set by the first share the pair pass gives i, which assigns gravity
-#: + the share, and for the band by start_band), 0 when they hold nothing of it (what an earlier step left: the
-#: particle pass computes gravity and zero instead of reading them, and sets the byte back to 0; so forces are
-#: never cleared for the next evaluation: engine/kernels.py OWN_SUM, PARTNER_SHARE, READ_SUMS). 0 everywhere
-#: between steps (a rebuild starts it at 0);
+#: (its row is not written: it holds what an earlier step left); own (n, uint8): 1 when particle i had a contact
+#: as the first of a pair at this step, 0 when not (not used by the kernels);
 #: live, per listed pair in the list's order: 0 when the pair's history is +0.0 in every column (it was apart at
 #: the last force evaluation, or new), so that a pair found apart again need not read it; 1 when it may be nonzero
 #: (the pair touched, or the list came from elsewhere: restart, insertion). The pair pass sets it for each contact
@@ -142,8 +138,8 @@ def boundary_band(start, j, n, shares, blocks, band, members):
 def start_band(nbr, n, size, f, torque):
     """Before a pair pass over n particles in blocks of `size` (engine/kernels.py PAIR_FORCES) on the current
     threads: the band (computed again after a rebuild or a change of the thread count), and the forces and
-    torques of its particles set to +0.0, their own bytes to 1 - there the pair pass adds only the particle's own
-    sum (to +0.0: the same bytes), the particle pass adds gravity and the reaction rows in the serial order."""
+    torques of its particles set to +0.0 - there the pair pass stores only the particle's own sum (added to
+    +0.0: the same bytes), the particle pass adds gravity and the reaction rows in the serial order."""
     shares = _threads()
     blocks = block_count(n, size)
     if nbr.shares[0] != shares:
@@ -151,7 +147,6 @@ def start_band(nbr, n, size, f, torque):
         nbr.shares[0] = shares
     for m in range(nbr.shares[1]):
         p = nbr.members[m]
-        nbr.own[p] = 1
         for a in range(3):
             f[p, a] = 0.0
             torque[p, a] = 0.0

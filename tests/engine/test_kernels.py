@@ -95,50 +95,36 @@ def test_the_generated_loops_are_parallel_and_thread_safe_by_construction():
     band = re.search(r"\n( +)if band\[j\]:\n(.*?)\n\1else:\n(.*?)\n\1[^ ]", source, re.DOTALL)
     assert band and "f[j" not in band[2] and "reaction[q, 0] = cout[" in band[2]
     assert f"f[j, 0] -= cout[{partner}, cq]" in band[3] and "reaction[q" not in band[3]
-    # once added (own[j] 1), once assigned as the first share (kernels.PARTNER_SHARE; no gravity here): two
-    # torques on j (tangential, rolling), the second added in both branches
-    assert source.count("f[j, 0] -=") == 1 and source.count("f[j, 0] = 0.0 - cout[") == 1
-    assert source.count("torque[j, 0] +=") == 3 and source.count("torque[j, 0] = 0.0 + cout[") == 1
+    assert source.count("f[j, 0] -=") == 1 and source.count("torque[j, 0] +=") == 2
     assert re.search(r"cout\[(\d+), cq\] = crj \* tqx", source) and "reaction[q, 3] = cout[" in source
     assert "reaction[q, 6] = cout[" in source
     assert kernels.Constants._fields == ("dt", "characteristic_velocity", "gravity", "lo", "hi", "periodic", "skin",
                                         "history_transfer")
 
 
-def test_a_force_is_assigned_by_its_first_share_and_never_cleared():
-    """No pass clears the forces for the next evaluation (kernels.OWN_SUM, PARTNER_SHARE, READ_SUMS): the pair pass
-    assigns gravity + the first share to a particle whose own byte is 0 (engine/neighbor.py NeighborList) and adds
-    the later ones; the particle pass reads f and torque only where the byte is 1 (and sets it to 0) and computes
-    gravity and zero for a particle nothing touched; a clump member keeps its totals for its body. On several
-    threads the step loop sets the band's forces to zero and their bytes to 1 just before the pair pass
-    (engine/neighbor.py start_band), and the particle pass gathers the band's pair rows. That the bytes stay those
-    of clearing is tests/engine/test_parallel.py and benchmarks/engine_identical.py."""
+def test_on_several_threads_forces_start_as_on_one_thread_but_the_band_at_zero():
+    """The drift starts the next evaluation (gravity, zero) on any number of threads (a clump member stores its
+    totals for its body instead); on several threads the step loop sets the band's forces to zero just before
+    the pair pass (engine/neighbor.py start_band), and the particle pass gathers only the band's pair rows.
+    That the values stay the same is tests/engine/test_parallel.py (1, 2 and 3 threads, bytes)."""
     combination = Combination(normal="hertz", tangential="history", planes=True, gravity=True, parallel=True)
 
     def integration(source):  # the particle pass's and the drift pass's integration (INTEGRATE)
         return re.findall(r"\n( +)if drift:\n(.*?)\n\1else:\n(.*?)\n\1v\[i, 0\] = v0", source, re.DOTALL)
 
     for parallel in (True, False):
-        source = generate_source(dataclasses.replace(combination, parallel=parallel))
-        passes = integration(source)
+        passes = integration(generate_source(dataclasses.replace(combination, parallel=parallel)))
         assert len(passes) == 2
         for _, drift, last in passes:
-            assert "f[i" not in drift and "torque[i" not in drift
+            assert "f[i, 2] = mass[i] * gravity[2]" in drift and "torque[i, 0] = 0.0" in drift
             assert "f[i, 0] = ftot0" in last and "torque[i, 2] = ttot2" in last
-        # the first share assigns: i's own sum, j's share
-        assert re.search(r"\n( +)if own\[i\]:\n\1    f\[i, 0\] \+= fix\n(.*\n)*?\1else:\n\1    own\[i\] = 1\n"
-                         r"\1    f\[i, 0\] = mass\[i\] \* gravity\[0\] \+ fix\n", source)
-        assert re.search(r"\n( +)else:\n\1    own\[j\] = 1\n(\1    torque\[j, \d\] = 0\.0 \+ cout\[\d+, cq\]\n)+"
-                         r"(.*\n)*?\1    f\[j, 0\] = mass\[j\] \* gravity\[0\] - cout", source)
-        # the particle pass: the sums where the byte is 1, else gravity and zero
-        assert re.search(r"if own\[i\]:\n +own\[i\] = 0\n +ftot0 = f\[i, 0\] \+ 0\.0\n(.*\n)*? +else:\n"
-                         r" +ftot0 = mass\[i\] \* gravity\[0\] \+ 0\.0\n", source)
     for _, drift, _ in integration(generate_source(dataclasses.replace(combination, clumps=True))):
-        assert re.search(r"if inv_mass\[i\] == 0\.0:\n +f\[i, 0\] = ftot0", drift)
+        assert re.search(r"if inv_mass\[i\] != 0\.0:\n +f\[i, 0\] = mass", drift)
+        assert re.search(r"else:\n +f\[i, 0\] = ftot0", drift)
     source = generate_source(combination)
     step_loop = source[source.index("def run_steps"):]
     assert re.search(r"start_band\(nbr, n, \d+, s\.f, s\.torque\)\n +pair_forces\(", step_loop)
-    assert re.search(r"if band\[i\]:\n +own\[i\] = 0\n +gfx = mass\[i\] \* gravity\[0\]", source)
+    assert re.search(r"if band\[i\]:\n +gfx = mass\[i\] \* gravity\[0\]", source)
     assert "start_band(" not in generate_source(dataclasses.replace(combination, parallel=False))
 
 
@@ -228,7 +214,7 @@ def test_the_pair_pass_resets_exactly_the_pairs_apart():
         if parallel:
             numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
             start_band(nbr, n, kernels.PAIR_BLOCK, s.f, s.torque)
-        module.pair_forces(s, n, nbr, pp, 1e-5, 1.0, hi - lo, np.zeros(3))
+        module.pair_forces(s, n, nbr, pp, 1e-5, 1.0, hi - lo)
         owner = np.repeat(np.arange(n), np.diff(nbr.start))
         d = np.linalg.norm(s.x[owner] - s.x[nbr.j], axis=1)
         apart = d >= radius[owner] + radius[nbr.j]
@@ -248,8 +234,6 @@ def test_the_pair_pass_resets_exactly_the_pairs_apart():
         touching[owner[~apart]] = True
         touching[nbr.j[~apart & ~in_band]] = True
         assert np.all(np.any(s.f[touching] != 0.0, axis=1)) and np.all(s.f[~touching] == 0.0)
-        # the own byte: 1 where the pass wrote a force (assigned by the first share; the band's are set before)
-        assert np.array_equal(nbr.own == 1, touching | (nbr.band == 1 if parallel else False))
 
 
 def _copy_list(nbr):
@@ -301,11 +285,10 @@ def test_the_live_byte_follows_contacts_and_the_rebuild_and_changes_no_result():
                     lst.live[:] = 1  # the former pass: every history row's bits tested
                 s.f[:] = 0.0
                 s.torque[:] = 0.0
-                lst.own[:] = 0  # what the particle pass leaves (kernels.READ_SUMS)
                 if parallel:  # every thread of the pool: a boundary band (engine/neighbor.py start_band)
                     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
                     start_band(lst, n, kernels.PAIR_BLOCK, s.f, s.torque)
-                module.pair_forces(s, n, lst, pp, 1e-5, 1.0, hi - lo, np.zeros(3))
+                module.pair_forces(s, n, lst, pp, 1e-5, 1.0, hi - lo)
                 results.append((s.f.copy(), s.torque.copy(), lst.hist.copy()))
             for new, before in zip(*results):
                 assert new.tobytes() == before.tobytes()
@@ -320,10 +303,9 @@ def test_the_live_byte_follows_contacts_and_the_rebuild_and_changes_no_result():
         k = np.nonzero(~contact[-1])[0][0]
         nbr.hist[k] = 1.0
         s.f[:] = 0.0
-        nbr.own[:] = 0
         if parallel:
             start_band(nbr, n, kernels.PAIR_BLOCK, s.f, s.torque)
-        module.pair_forces(s, n, nbr, pp, 1e-5, 1.0, hi - lo, np.zeros(3))
+        module.pair_forces(s, n, nbr, pp, 1e-5, 1.0, hi - lo)
         assert np.all(nbr.hist[k] == 1.0) and nbr.live[k] == 0
         nbr.hist[k] = 0.0
         # the rebuild after the particles moved: pairs found again carry their rows and bytes, some swapped
