@@ -92,7 +92,8 @@ def test_the_generated_loops_are_parallel_and_thread_safe_by_construction():
     mine, partner = re.findall(r"cout\[(\d+), cq\] = fx\n", serial)  # what i adds, what j takes
     assert f"fix += cout[{mine}, cq]" in serial and f"f[j, 0] -= cout[{partner}, cq]" in serial
     # the partner's share: the pair row for a band particle, else straight into its force, as on one thread
-    band = re.search(r"\n( +)if band\[j\]:\n(.*?)\n\1else:\n(.*?)\n\1[^ ]", source, re.DOTALL)
+    # (each branch: the lines indented deeper than its `if`, so the match cannot run into later code)
+    band = re.search(r"\n( +)if band\[j\]:\n((?:\1 +\S[^\n]*\n)+)\1else:\n((?:\1 +\S[^\n]*\n)+)", source)
     assert band and "f[j" not in band[2] and "reaction[q, 0] = cout[" in band[2]
     assert f"f[j, 0] -= cout[{partner}, cq]" in band[3] and "reaction[q" not in band[3]
     assert source.count("f[j, 0] -=") == 1 and source.count("torque[j, 0] +=") == 2
