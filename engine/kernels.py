@@ -232,6 +232,7 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
     ${band_head}
     pair_live = nbr.live
     nblocks = block_count(n, ${block})
+    last_entry = nbr_j.shape[0] - 1
     shares = ${shares}
     for t in prange(shares):
         cin = np.empty((${nin}, ${chunk}))
@@ -264,6 +265,9 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
                         ${gather_head}
                         ${body_i}
                     j = nbr_j[k]
+                    ahead = nbr_j[min(k + ${ahead}, last_entry)]
+                    prefetch_row(x, ahead)
+                    prefetch_row(radius, ahead)
                     dx = xi0 - x[j, 0]
                     dy = xi1 - x[j, 1]
                     dz = xi2 - x[j, 2]
@@ -271,7 +275,6 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
                     rsq = dx * dx + dy * dy + dz * dz
                     rj = radius[j]
                     radsum = ri + rj
-                    ${row}
                     ${same_body}
                     ck[m] = k
                     cj[m] = j
@@ -316,7 +319,6 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
 FAR = """\
 for cq in range(mf):
     k = cfar[cq]
-    ${row}
     ${reset_history}
     ${zero_row}
 """
@@ -350,6 +352,8 @@ if mine:
 """)
 #: particles per block of the pair loop (a thread's unit of work; the results do not depend on it)
 PAIR_BLOCK = 512
+#: list entries ahead whose partner's position and radius the contact-finding sweep prefetches (engine/prefetch.py)
+PREFETCH_AHEAD = 16
 #: list entries per sweep of a block: the length of the columns (about 40 doubles per entry: 330 kB, in L2). Not a
 #: multiple of 512: columns 4 kB apart share the same L1 cache sets (at 512 the pair pass took twice as long)
 CONTACT_CHUNK = 1032
@@ -679,6 +683,7 @@ from numba import prange
 from engine.clock import now
 from engine.jit import njit
 from engine.neighbor import PARALLEL, block_count, rebuild, start_band
+from engine.prefetch import prefetch_row
 ${imports}
 
 
@@ -794,7 +799,9 @@ def _pair_forces(c: Combination) -> str:
     periodic = "".join(f"d{name} -= box[{a}] * np.rint(d{name} / box[{a}])\n"
                        for a, name in enumerate("xyz") if c.periodic[a])
     rows = c.parallel  # several threads: pair rows for the partner, gathered in the particle pass
-    zero_row = "pair_touch[q] = 0" if rows else ""
+    # a pair apart marks its row not touching only where the particle the row is for is in the band: no other
+    # row is read (GATHER), and every row of a band particle is written at every pass (1 in contact, 0 apart)
+    zero_row = "if band[nbr_j[k]]:\n    pair_touch[rslot[k]] = 0" if rows else ""
     # clumps (engine/clumps.py): two members of one body do not touch; no such lines in a scene of spheres
     body_slots = dict(same_body_head=clumps.SAME_BODY_HEAD, body_i="body_i = member_body[pid[i]]",
                       same_body=render(clumps.SAME_BODY, zero_row=zero_row)) if c.clumps else \
@@ -820,16 +827,15 @@ def _pair_forces(c: Combination) -> str:
     # contact-finding sweep; none of that without history on one thread
     reset = render(RESET_PAIR_HISTORY, width=str(width),
                    bits=" | ".join(f"hist_bits[k, {h}]" for h in range(width))) if width else ""
-    row = "q = rslot[k]" if rows else ""
     far = dict(far_alloc=None, far_start=None, apart=None, far=None)
     if reset or zero_row:
         far = dict(far_alloc=f"cfar = np.empty({CONTACT_CHUNK}, dtype=np.int64)\nhist_bits = pair_hist.view(np.uint64)",
                    far_start="mf = 0",
-                   apart="cfar[mf] = k\nmf += apart", far=render(FAR, row=row, reset_history=reset, zero_row=zero_row))
-    return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), gather_head=head, block=str(PAIR_BLOCK), chunk=str(CONTACT_CHUNK),
+                   apart="cfar[mf] = k\nmf += apart", far=render(FAR, reset_history=reset, zero_row=zero_row))
+    return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), gather_head=head, block=str(PAIR_BLOCK), ahead=str(PREFETCH_AHEAD), chunk=str(CONTACT_CHUNK),
                   zero_sums=zero_sums,
                   nin=str(len(inputs)), nout=str(max(nout, 1)), gather=gather, load=load, store=store, sums=sums,
-                  periodic_image=periodic, row=row, contact=contact,
+                  periodic_image=periodic, contact=contact,
                   flush=render(FLUSH[0], own_sum=OWN_SUM, zero_sums=zero_sums),
                   flush_end=render(FLUSH[1], own_sum=OWN_SUM, zero_sums=zero_sums),
                   band_head="band = nbr.band" if rows else None,

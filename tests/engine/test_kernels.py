@@ -181,8 +181,9 @@ def test_the_pair_pass_resets_exactly_the_pairs_apart():
     """The contact-finding sweep keeps the pairs in contact and the pairs apart without a branch (kernels.PAIR_FORCES):
     every pair apart - and only those - gets its history reset (to +0.0, also from -0.0) and, on several threads,
     its row marked as not touching (`touch`, in the rows' order), its reaction row left unwritten. On several
-    threads only the pairs whose partner is in the boundary band write their reaction row; every other partner
-    takes its share in its force at once."""
+    threads only the pairs whose partner is in the boundary band write their reaction row and its mark, at every
+    pass (whatever a mark held before: the particle pass reads the band's rows only); every other partner takes
+    its share in its force at once and its row's mark is not written."""
     import numba
 
     from engine import state as particle_state
@@ -211,6 +212,7 @@ def test_the_pair_pass_resets_exactly_the_pairs_apart():
         nbr.hist[1::3, 1] = 0.0
         nbr.live[:] = 1  # histories written here: every row may be nonzero (engine/neighbor.py NeighborList)
         nbr.reaction[:] = 7.0
+        nbr.touch[:] = 1  # stale marks (an earlier pass, another band)
         pp = parameter_table(c, materials, inter, 1)
         if parallel:
             numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
@@ -227,7 +229,8 @@ def test_the_pair_pass_resets_exactly_the_pairs_apart():
             in_band = nbr.band[nbr.j] == 1
             assert (numba.config.NUMBA_NUM_THREADS == 1) == (not in_band.any())
             rows, touch = nbr.reaction[nbr.rslot], nbr.touch[nbr.rslot]
-            assert np.all(touch[apart] == 0) and np.all(touch[~apart & in_band] == 1)
+            assert np.all(touch[apart & in_band] == 0) and np.all(touch[~apart & in_band] == 1)
+            assert np.all(touch[~in_band] == 1) and (apart & in_band).any()
             assert np.all(rows[apart | ~in_band] == 7.0) and np.all(rows[~apart & in_band] != 7.0)
         # a force on each particle in contact, none on the others (on several threads the shares of the band's
         # particles wait in the rows: a force on them only from their own pairs)
