@@ -291,6 +291,7 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
                     i = ci[cq]
                     j = cj[cq]
                     k = ck[cq]
+                    ${gather_ahead}
                     ${gather}
                 for cq in range(m):
                     ${load}
@@ -354,6 +355,8 @@ if mine:
 PAIR_BLOCK = 512
 #: list entries ahead whose partner's position and radius the contact-finding sweep prefetches (engine/prefetch.py)
 PREFETCH_AHEAD = 16
+#: contacts ahead whose partner's arrays (velocity, spin, mass, ...) the gather sweep prefetches
+GATHER_AHEAD = 8
 #: list entries per sweep of a block: the length of the columns (about 40 doubles per entry: 330 kB, in L2). Not a
 #: multiple of 512: columns 4 kB apart share the same L1 cache sets (at 512 the pair pass took twice as long)
 CONTACT_CHUNK = 1032
@@ -812,6 +815,10 @@ def _pair_forces(c: Combination) -> str:
     inputs.update({f"h{h}": f"pair_hist[k, {h}]" for h in range(width)})
     gather = "".join(f"cin[{col}, cq] = {value}\n" for col, value in enumerate(inputs.values()) if value)
     gather = "ti = ptype[i]\ntj = ptype[j]\n" + gather if nparam else gather
+    # the partner's arrays the gather reads, prefetched for the contact GATHER_AHEAD places on (PREFETCH_AHEAD)
+    partner_arrays = sorted(set(re.findall(r"\b(\w+)\[j\b", gather)))
+    gather_ahead = f"ahead = cj[min(cq + {GATHER_AHEAD}, m - 1)]\n" + "".join(
+        f"prefetch_row({name}, ahead)\n" for name in partner_arrays) if partner_arrays else None
     load = "".join(f"{name} = cin[{col}, cq]\n" for col, name in enumerate(inputs))
     first_hist = len(inputs) - width
     store = "".join(f"cin[{first_hist + h}, cq] = h{h}\n" for h in range(width))
@@ -834,7 +841,7 @@ def _pair_forces(c: Combination) -> str:
                    apart="cfar[mf] = k\nmf += apart", far=render(FAR, reset_history=reset, zero_row=zero_row))
     return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), gather_head=head, block=str(PAIR_BLOCK), ahead=str(PREFETCH_AHEAD), chunk=str(CONTACT_CHUNK),
                   zero_sums=zero_sums,
-                  nin=str(len(inputs)), nout=str(max(nout, 1)), gather=gather, load=load, store=store, sums=sums,
+                  nin=str(len(inputs)), nout=str(max(nout, 1)), gather=gather, gather_ahead=gather_ahead, load=load, store=store, sums=sums,
                   periodic_image=periodic, contact=contact,
                   flush=render(FLUSH[0], own_sum=OWN_SUM, zero_sums=zero_sums),
                   flush_end=render(FLUSH[1], own_sum=OWN_SUM, zero_sums=zero_sums),

@@ -16,20 +16,29 @@ from numba.extending import intrinsic
 
 @intrinsic
 def prefetch_row(typingctx, array, row):
-    """Prefetch the cache line of a[row, 0] (a[row] for a 1-D array) for reading, kept in every cache level."""
+    """Prefetch row `row` of a C-contiguous 1-D or 2-D array for reading, into every cache level: the line of
+    a[row] (1-D), or the lines of a[row, 0] and a[row, -1] (2-D: a row of three doubles, 24 B, straddles two
+    64 B lines at one row in four)."""
+    if not (isinstance(array, types.Array) and array.ndim in (1, 2) and isinstance(row, types.Integer)):
+        return None
+
     def codegen(context, builder, signature, args):
         aryty = signature.args[0]
         ary = context.make_array(aryty)(context, builder, args[0])
-        index = [args[1]] + [context.get_constant(types.intp, 0)] * (aryty.ndim - 1)
-        ptr = cgutils.get_item_pointer2(context, builder, ary.data,
-                                        cgutils.unpack_tuple(builder, ary.shape, aryty.ndim),
-                                        cgutils.unpack_tuple(builder, ary.strides, aryty.ndim), aryty.layout,
-                                        index, wraparound=False, boundscheck=False)
+        shape = cgutils.unpack_tuple(builder, ary.shape, aryty.ndim)
+        strides = cgutils.unpack_tuple(builder, ary.strides, aryty.ndim)
         byte_ptr = ir.IntType(8).as_pointer()
         i32 = ir.IntType(32)
         fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [byte_ptr, i32, i32, i32]),
                                             "llvm.prefetch.p0")
-        # read (0), keep in all levels (3), data cache (1)
-        builder.call(fn, [builder.bitcast(ptr, byte_ptr), i32(0), i32(3), i32(1)])
+        columns = [context.get_constant(types.intp, 0)]
+        if aryty.ndim == 2:
+            columns.append(builder.sub(shape[1], context.get_constant(types.intp, 1)))
+        for column in columns:
+            index = [args[1]] + ([column] if aryty.ndim == 2 else [])
+            ptr = cgutils.get_item_pointer2(context, builder, ary.data, shape, strides, aryty.layout, index,
+                                            wraparound=False, boundscheck=False)
+            # read (0), keep in all levels (3), data cache (1)
+            builder.call(fn, [builder.bitcast(ptr, byte_ptr), i32(0), i32(3), i32(1)])
         return context.get_dummy_value()
-    return types.void(array, types.intp), codegen
+    return types.void(array, row), codegen
