@@ -31,11 +31,12 @@ def prefetch_row(typingctx, array, row):
         i32 = ir.IntType(32)
         fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [byte_ptr, i32, i32, i32]),
                                             "llvm.prefetch.p0")
+        row = context.cast(builder, args[1], signature.args[1], types.intp)  # int32 list entries, say
         columns = [context.get_constant(types.intp, 0)]
         if aryty.ndim == 2:
             columns.append(builder.sub(shape[1], context.get_constant(types.intp, 1)))
         for column in columns:
-            index = [args[1]] + ([column] if aryty.ndim == 2 else [])
+            index = [row] + ([column] if aryty.ndim == 2 else [])
             ptr = cgutils.get_item_pointer2(context, builder, ary.data, shape, strides, aryty.layout, index,
                                             wraparound=False, boundscheck=False)
             # read (0), keep in all levels (3), data cache (1)

@@ -28,13 +28,14 @@ def _prefetch_one(a, row):
 
 
 @pytest.mark.parametrize("shape", [(5000,), (5000, 3)])
-def test_prefetch_changes_no_value_and_reaches_the_machine_code(shape):
+@pytest.mark.parametrize("index_type", [np.int64, np.int32])  # the neighbor list's entries are int32
+def test_prefetch_changes_no_value_and_reaches_the_machine_code(shape, index_type):
     rng = np.random.default_rng(1)
     a = rng.random(shape)
-    index = rng.integers(0, shape[0], 20000)
+    index = rng.integers(0, shape[0], 20000).astype(index_type)
     assert _gathered_sum(a, index, True) == _gathered_sum(a, index, False)
-    ir = _prefetch_one.inspect_llvm()[(_prefetch_one.typeof_pyval(a), _prefetch_one.typeof_pyval(3))] if \
-        _prefetch_one(a, 3) is None else ""
+    ir = _prefetch_one.inspect_llvm()[(_prefetch_one.typeof_pyval(a), _prefetch_one.typeof_pyval(index[3]))] if \
+        _prefetch_one(a, index[3]) is None else ""
     # read, all cache levels, data: the line of a 1-D array's row; a 2-D row's first and last column
     calls = re.findall(r"call void @llvm\.prefetch\.p0\(ptr [^,]+, i32 0, i32 3, i32 1\)", ir)
     assert len(calls) == (2 if len(shape) == 2 else 1)
