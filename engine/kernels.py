@@ -232,7 +232,6 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
     ${band_head}
     pair_live = nbr.live
     nblocks = block_count(n, ${block})
-    last_entry = nbr_j.shape[0] - 1
     shares = ${shares}
     for t in prange(shares):
         cin = np.empty((${nin}, ${chunk}))
@@ -265,9 +264,6 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
                         ${gather_head}
                         ${body_i}
                     j = nbr_j[k]
-                    ahead = nbr_j[min(k + ${ahead}, last_entry)]
-                    prefetch_row(x, ahead)
-                    prefetch_row(radius, ahead)
                     dx = xi0 - x[j, 0]
                     dy = xi1 - x[j, 1]
                     dz = xi2 - x[j, 2]
@@ -291,7 +287,6 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
                     i = ci[cq]
                     j = cj[cq]
                     k = ck[cq]
-                    ${gather_ahead}
                     ${gather}
                 for cq in range(m):
                     ${load}
@@ -316,7 +311,8 @@ def pair_forces(s, n, nbr, pp, dt, char_vel, box${bodies}):
 '''
 #: the listed pairs of a sweep found apart (cfar[:mf]): contact history reset - only where it is not zero
 #: already (a test of its bits: a read, where a store would fetch and write back every pair's row), row not
-#: touching (several threads: its reaction row is left as it is, pass 2 does not read it)
+#: touching (several threads, a partner in the band only: its reaction row is left as it is, pass 2 does not
+#: read it; the rows of other partners are never read)
 FAR = """\
 for cq in range(mf):
     k = cfar[cq]
@@ -353,10 +349,6 @@ if mine:
 """)
 #: particles per block of the pair loop (a thread's unit of work; the results do not depend on it)
 PAIR_BLOCK = 512
-#: list entries ahead whose partner's position and radius the contact-finding sweep prefetches (engine/prefetch.py)
-PREFETCH_AHEAD = 16
-#: contacts ahead whose partner's arrays (velocity, spin, mass, ...) the gather sweep prefetches
-GATHER_AHEAD = 8
 #: list entries per sweep of a block: the length of the columns (about 40 doubles per entry: 330 kB, in L2). Not a
 #: multiple of 512: columns 4 kB apart share the same L1 cache sets (at 512 the pair pass took twice as long)
 CONTACT_CHUNK = 1032
@@ -686,7 +678,6 @@ from numba import prange
 from engine.clock import now
 from engine.jit import njit
 from engine.neighbor import PARALLEL, block_count, rebuild, start_band
-from engine.prefetch import prefetch_row
 ${imports}
 
 
@@ -815,10 +806,6 @@ def _pair_forces(c: Combination) -> str:
     inputs.update({f"h{h}": f"pair_hist[k, {h}]" for h in range(width)})
     gather = "".join(f"cin[{col}, cq] = {value}\n" for col, value in enumerate(inputs.values()) if value)
     gather = "ti = ptype[i]\ntj = ptype[j]\n" + gather if nparam else gather
-    # the partner's arrays the gather reads, prefetched for the contact GATHER_AHEAD places on (PREFETCH_AHEAD)
-    partner_arrays = sorted(set(re.findall(r"\b(\w+)\[j\b", gather)))
-    gather_ahead = f"ahead = cj[min(cq + {GATHER_AHEAD}, m - 1)]\n" + "".join(
-        f"prefetch_row({name}, ahead)\n" for name in partner_arrays) if partner_arrays else None
     load = "".join(f"{name} = cin[{col}, cq]\n" for col, name in enumerate(inputs))
     first_hist = len(inputs) - width
     store = "".join(f"cin[{first_hist + h}, cq] = h{h}\n" for h in range(width))
@@ -839,9 +826,9 @@ def _pair_forces(c: Combination) -> str:
         far = dict(far_alloc=f"cfar = np.empty({CONTACT_CHUNK}, dtype=np.int64)\nhist_bits = pair_hist.view(np.uint64)",
                    far_start="mf = 0",
                    apart="cfar[mf] = k\nmf += apart", far=render(FAR, reset_history=reset, zero_row=zero_row))
-    return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), gather_head=head, block=str(PAIR_BLOCK), ahead=str(PREFETCH_AHEAD), chunk=str(CONTACT_CHUNK),
+    return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), gather_head=head, block=str(PAIR_BLOCK), chunk=str(CONTACT_CHUNK),
                   zero_sums=zero_sums,
-                  nin=str(len(inputs)), nout=str(max(nout, 1)), gather=gather, gather_ahead=gather_ahead, load=load, store=store, sums=sums,
+                  nin=str(len(inputs)), nout=str(max(nout, 1)), gather=gather, load=load, store=store, sums=sums,
                   periodic_image=periodic, contact=contact,
                   flush=render(FLUSH[0], own_sum=OWN_SUM, zero_sums=zero_sums),
                   flush_end=render(FLUSH[1], own_sum=OWN_SUM, zero_sums=zero_sums),
