@@ -4,7 +4,7 @@ The scene of engine/examples/settling_box.json (settling.json with the domain as
 no sphere is lost at 100,000 and more: N spheres of r = 1.5 mm packed at random into a box of five plane
 walls, Hertz + tangential history, gravity, dt = 1e-5 s): SETTLE steps of pouring and settling, then MEASURE
 steps on the bed. Each (build, threads) configuration runs the same scene; configurations alternate within
-each repetition so that the machine's load hits all of them alike. A build is a folder holding engine/ (an
+each repetition, and the sizes take turns in it, so that the machine's load hits all of them alike. A build is a folder holding engine/ (an
 old commit: `git archive <commit> engine | tar -x -C /tmp/old`). Figures are the engine's own loop times
 (the `Loop time` lines: stepping without start-up or compilation), the median over repetitions, and their
 ratios to the first configuration.
@@ -150,19 +150,23 @@ def main():
     for build in args.builds:  # compile (or load) every kernel once, outside the figures
         run(build, 1, variables(1000, 10, 10), args.scene)
     rates = {c: {} for c in configs}  # config -> n -> (total rate, measure rate) in particle-steps/s
-    for size in args.sizes:
-        n = particles(args.scene, size)
-        values = variables(n, args.settle, args.measure)
-        times = {c: [] for c in configs}
-        repeat = args.small_repeat if args.small_repeat and n < 100000 else args.repeat
-        for rep in range(repeat):
-            order = configs if rep % 2 == 0 else configs[::-1]
-            for config in order:
+    sizes = [particles(args.scene, size) for size in args.sizes]
+    repeats = {n: args.small_repeat if args.small_repeat and n < 100000 else args.repeat for n in sizes}
+    times = {n: {c: [] for c in configs} for n in sizes}
+    # the sizes take turns within each repetition, and the configurations within each size: the ratio between
+    # sizes is the figure, and a machine whose speed drifts over minutes (shared cores) moves both its terms
+    for rep in range(max(repeats.values())):
+        for n in sizes:
+            if rep >= repeats[n]:
+                continue
+            values = variables(n, args.settle, args.measure)
+            for config in configs if rep % 2 == 0 else configs[::-1]:
                 settle, measure, phases = run(*config, values, args.scene)
-                times[config].append((settle, measure, phases))
+                times[n][config].append((settle, measure, phases))
                 print(f"N={n} rep {rep + 1}: {config[0]} threads {config[1]}: settle {settle:.2f} s, "
                       f"measure {measure:.2f} s", flush=True)
-        print(f"\nN = {n} ({args.scene}): {args.settle} + {args.measure} steps, median of {repeat} (loop "
+    for n in sizes:
+        print(f"\nN = {n} ({args.scene}): {args.settle} + {args.measure} steps, median of {repeats[n]} (loop "
               f"times); steady = the measure run alone; ns = per particle-step of the measure run; per cpu s = "
               f"over the process' CPU time (robust to a loaded machine on one thread; on several it counts "
               f"threads waiting)")
@@ -171,9 +175,9 @@ def main():
               f"{'modify ns':>10} {'rebuilds':>8} {'steady Mps/cpu s':>16}")
         first = None
         for config in configs:
-            settle = statistics.median(t[0] for t in times[config])
-            measure = statistics.median(t[1] for t in times[config])
-            pair, neigh, rebuilds, modify, cpu_rate = (statistics.median(t[2][k] for t in times[config])
+            settle = statistics.median(t[0] for t in times[n][config])
+            measure = statistics.median(t[1] for t in times[n][config])
+            pair, neigh, rebuilds, modify, cpu_rate = (statistics.median(t[2][k] for t in times[n][config])
                                                        for k in range(5))
             total = settle + measure
             first = first or total
