@@ -4,10 +4,10 @@ The scene of engine/examples/settling_box.json (settling.json with the domain as
 no sphere is lost at 100,000 and more: N spheres of r = 1.5 mm packed at random into a box of five plane
 walls, Hertz + tangential history, gravity, dt = 1e-5 s): SETTLE steps of pouring and settling, then MEASURE
 steps on the bed. Each (build, threads) configuration runs the same scene; configurations alternate within
-each repetition, and the sizes take turns in it, so that the machine's load hits all of them alike. A build is a folder holding engine/ (an
-old commit: `git archive <commit> engine | tar -x -C /tmp/old`). Figures are the engine's own loop times
-(the `Loop time` lines: stepping without start-up or compilation), the median over repetitions, and their
-ratios to the first configuration.
+each repetition, and the sizes take turns in it, so that the machine's load hits all of them alike. A build is
+a folder holding engine/ (an old commit: `git archive <commit> engine | tar -x -C /tmp/old`). Figures are the
+engine's own loop times (the `Loop time` lines: stepping without start-up or compilation), the median over
+repetitions, and their ratios to the first configuration.
 
     python benchmarks/engine_threads.py --builds /tmp/old . --threads 1 2        # old (serial) vs new, 1 and 2
     python benchmarks/engine_threads.py --sizes 10000 100000 --settle 30000 --measure 2000 --repeat 3

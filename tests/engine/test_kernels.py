@@ -230,7 +230,7 @@ def test_the_pair_pass_resets_exactly_the_pairs_apart():
             assert (numba.config.NUMBA_NUM_THREADS == 1) == (not in_band.any())
             rows, touch = nbr.reaction[nbr.rslot], nbr.touch[nbr.rslot]
             assert np.all(touch[apart & in_band] == 0) and np.all(touch[~apart & in_band] == 1)
-            assert np.all(touch[~in_band] == 1) and (apart & in_band).any()
+            assert np.all(touch[~in_band] == 1) and ((apart & in_band).any() or numba.config.NUMBA_NUM_THREADS == 1)
             assert np.all(rows[apart | ~in_band] == 7.0) and np.all(rows[~apart & in_band] != 7.0)
         # a force on each particle in contact, none on the others (on several threads the shares of the band's
         # particles wait in the rows: a force on them only from their own pairs)
