@@ -240,6 +240,16 @@ def main():
                              env, root / "run.log")
         times["check"] = stage("harness check --junit", ["harness", "check", "--junit", str(root / "junit.xml")],
                                src, env, root / "check.log")
+        # the workspace is removed at the end: the verdict goes into this output (its summary, the failed rows
+        # with their messages whole)
+        verdict = (root / "check.log").read_text().splitlines()
+        print("  check: " + (verdict[-1] if verdict else "no output"), flush=True)
+        if verdict and " 0 failed" not in verdict[-1]:
+            detail = subprocess.run(["harness", "check", "-v", "--wide"], cwd=src, env=env, capture_output=True,
+                                    text=True).stdout.splitlines()
+            for line in detail:
+                if line.startswith("  ") and ": failed" in line:      # -v: a line per failed run, its message
+                    print("    " + line.strip(), flush=True)
         total = sum(times.values())
         print(f"  {'main job':<28} {total:8.1f} s   (load average now {os.getloadavg()[0]:.1f})", flush=True)
         print("cold run stage:")
