@@ -55,9 +55,18 @@ found() {
     python3 -c 'import importlib.util, sys; sys.exit(any(importlib.util.find_spec(m) is None for m in sys.argv[1:]))' $modules 2>/dev/null
 }
 newest_marker=$marker
+# the installed `harness` must be this checkout's: an editable install made in another folder (a checkout since
+# moved or removed) leaves a command whose import fails outside this folder; looked up from / so that the current
+# folder is not on the path (PYTHONPATH, as benchmarks/main_job.py sets it for a clone, still counts)
+here=$(pwd -P)
+this_checkout() {
+    (cd / && python3 -c 'import importlib.util, os, sys
+spec = importlib.util.find_spec("harness")
+sys.exit(spec is None or not os.path.realpath(spec.origin).startswith(sys.argv[1] + os.sep))' "$here") 2>/dev/null
+}
 # everything installed counts for the main job too
 [ "$mode" = main ] && [ .harness/.installed -nt "$marker" ] && newest_marker=.harness/.installed
-if ! command -v harness >/dev/null 2>&1 || ! command -v dem >/dev/null 2>&1 || ! found \
+if ! command -v harness >/dev/null 2>&1 || ! command -v dem >/dev/null 2>&1 || ! found || ! this_checkout \
    || [ pyproject.toml -nt "$newest_marker" ]; then
     echo "setup: installing Python packages (pip install -e .$extras)"
     python3 -m pip install -q --disable-pip-version-check -e ".$extras"
