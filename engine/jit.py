@@ -164,7 +164,8 @@ def _record_fields(ty, out: list):
             _record_fields(t, out)
     elif isinstance(ty, nbtypes.BaseNamedTuple):
         cls = ty.instance_class
-        out.append(f"{cls.__module__}.{cls.__qualname__}{tuple(cls._fields)}")
+        # a class may say how its fields lie in memory beyond their names (engine/state.py ParticleState)
+        out.append(f"{cls.__module__}.{cls.__qualname__}{tuple(cls._fields)}{getattr(cls, 'layout_key', '')}")
         _record_fields(tuple(ty.types), out)
     elif isinstance(ty, nbtypes.BaseTuple):
         _record_fields(tuple(ty.types), out)

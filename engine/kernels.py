@@ -32,7 +32,7 @@ from . import cache_limit, clumps, superquadrics
 from .contact_laws import slip_velocity
 from .jit import cache_dir, content_key
 from .models import LAWS, PARAMETERS, SUBMODELS, options
-from .state import FIELD_NAMES
+from .state import BLOCKS, FIELD_NAMES, interleaved
 from .templates import render, unpack
 from .walls import SHAPES, WALL_FEATURES, WALL_FIELDS, collect_wall_forces
 
@@ -550,6 +550,7 @@ OWN_SUM = ("f[i, 0] += fix\nf[i, 1] += fiy\nf[i, 2] += fiz\ntorque[i, 0] += tix\
 CLEAR_FORCES = '''\
 @njit(cache=True, error_model="numpy")
 def clear_forces(s, n, gravity):
+    ${blocks}
     f = s.f
     torque = s.torque
     mass = s.mass
@@ -826,7 +827,7 @@ def _pair_forces(c: Combination) -> str:
         far = dict(far_alloc=f"cfar = np.empty({CONTACT_CHUNK}, dtype=np.int64)\nhist_bits = pair_hist.view(np.uint64)",
                    far_start="mf = 0",
                    apart="cfar[mf] = k\nmf += apart", far=render(FAR, reset_history=reset, zero_row=zero_row))
-    return render(PAIR_FORCES, unpack=unpack("s", FIELD_NAMES), gather_head=head, block=str(PAIR_BLOCK), chunk=str(CONTACT_CHUNK),
+    return render(PAIR_FORCES, unpack=unpack("s", tuple(BLOCKS) + FIELD_NAMES), gather_head=head, block=str(PAIR_BLOCK), chunk=str(CONTACT_CHUNK),
                   zero_sums=zero_sums,
                   nin=str(len(inputs)), nout=str(max(nout, 1)), gather=gather, load=load, store=store, sums=sums,
                   periodic_image=periodic, contact=contact,
@@ -864,7 +865,7 @@ def _particle_pass(c: Combination, parts: list) -> str:
         clear = clumps.member_clear(clear, STORE_TOTALS)
     load = "".join(f"{local}{a} = {array}[i, {a}]\n" for local, array in (("v", "v"), ("w", "omega")) for a in range(3))
     integrate = render(INTEGRATE, clear=clear, store_totals=STORE_TOTALS, half_kick=HALF_KICK, load=load)
-    return render(PARTICLE_PASS, unpack=unpack("s", FIELD_NAMES), unpack_walls=unpack_walls,
+    return render(PARTICLE_PASS, unpack=unpack("s", tuple(BLOCKS) + FIELD_NAMES), unpack_walls=unpack_walls,
                   gather=gather or READ_SUMS, walls=walls, integrate=integrate, read_totals=READ_TOTALS)
 
 
@@ -892,7 +893,7 @@ def generate_source(c: Combination) -> str:
     parts = [shape.kernel(c) for shape in SHAPES.values()]
     pair_forces, particle_pass = _pair_forces(c), _particle_pass(c, parts)
     setup, step_loop = _step_loop(c, parts, SETUP), _step_loop(c, parts, STEP_LOOP)
-    clear_forces = render(CLEAR_FORCES, clear="".join(
+    clear_forces = render(CLEAR_FORCES, blocks=unpack("s", tuple(BLOCKS)), clear="".join(
         f"f[i, {a}] = {g}\n" for a, g in enumerate(_gravity_force(c))))
     body = pair_forces + particle_pass + setup + step_loop
     called = sorted({fn for law in c.laws() for fn in law.functions}, key=lambda fn: fn.__name__) + [slip_velocity]
@@ -910,6 +911,9 @@ def generate_source(c: Combination) -> str:
     source = render(MODULE, combination=repr(c) + named, imports=imports, pair_forces=pair_forces,
                     particle_pass=particle_pass, clear_forces=clear_forces, setup=setup, step_loop=step_loop,
                     wall_functions="".join(part.functions for part in parts))
+    # the functions that read the particle state index its interleaved block (engine/state.py)
+    source = "".join(interleaved(part) if all(f"{b} = s.{b}\n" in part for b in BLOCKS) else part
+                     for part in re.split(r"(?=^@njit)", source, flags=re.M))
     # one thread: the loops compiled serially (prange is range there)
     return source if c.parallel else source.replace("parallel=PARALLEL", "parallel=False")
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..script import Fields
+from ..state import BLOCKS
 from ..templates import render, unpack
 from .shape import AXES, KernelPart, WallShape, numbers, rows, unit
 
@@ -170,5 +171,5 @@ class Plane(WallShape):
             return render(PLANE_CONTACTS, reset_history=reset("wall"), contact=contact("wall"), bounds=bounds)
         return KernelPart(contacts=contacts, move=MOVE_PLANES, after_rebuild=PLANE_REACH_CALL,
                           at_start=PLANE_REACH_CALL, setup=PLANE_REACH_CALL,
-                          functions=render(PLANE_REACH, unpack=unpack("s", ("x_build", "radius", "wall_hist"))
+                          functions=render(PLANE_REACH, unpack=unpack("s", tuple(BLOCKS) + ("x_build", "radius", "wall_hist"))
                                            + unpack("walls", ("plane_point", "plane_normal", "plane_vel"))))
