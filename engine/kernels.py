@@ -889,7 +889,7 @@ def _step_loop(c: Combination, parts: list, template: str) -> str:
 
 
 def generate_source(c: Combination) -> str:
-    """Python source of the compiled kernels for combination c."""
+    """Python source of the kernels for combination c, the particle fields by name (`laid_out` is what compiles)."""
     parts = [shape.kernel(c) for shape in SHAPES.values()]
     pair_forces, particle_pass = _pair_forces(c), _particle_pass(c, parts)
     setup, step_loop = _step_loop(c, parts, SETUP), _step_loop(c, parts, STEP_LOOP)
@@ -911,9 +911,6 @@ def generate_source(c: Combination) -> str:
     source = render(MODULE, combination=repr(c) + named, imports=imports, pair_forces=pair_forces,
                     particle_pass=particle_pass, clear_forces=clear_forces, setup=setup, step_loop=step_loop,
                     wall_functions="".join(part.functions for part in parts))
-    # the functions that read the particle state index its interleaved block (engine/state.py)
-    source = "".join(interleaved(part) if all(f"{b} = s.{b}\n" in part for b in BLOCKS) else part
-                     for part in re.split(r"(?=^@njit)", source, flags=re.M))
     # one thread: the loops compiled serially (prange is range there)
     return source if c.parallel else source.replace("parallel=PARALLEL", "parallel=False")
 
@@ -961,11 +958,19 @@ _loaded: dict = {}
 _functions: dict = {}
 
 
+def laid_out(source: str) -> str:
+    """Generated source as compiled: in each function that binds the state's blocks, the fields read and written
+    by name (``x[j, 0]``, as `generate_source` writes them) indexed in their block (``hot[j, 0]``:
+    engine/state.py interleaved)."""
+    return "".join(interleaved(part) if all(f"{b} = s.{b}\n" in part for b in BLOCKS) else part
+                   for part in re.split(r"(?=^@njit)", source, flags=re.M))
+
+
 def build_kernel(c: Combination):
     """The compiled module (functions setup, run_steps) for combination c; generated and cached on disk."""
     if c in _loaded:
         return _loaded[c]
-    source = generate_source(c)
+    source = laid_out(generate_source(c))
     # the file is named by its text; the machine code of each function in it is keyed by its content and the
     # functions it calls (engine/jit.py): a commit that leaves both alone compiles nothing
     key = hashlib.sha256(source.encode()).hexdigest()[:20]

@@ -349,3 +349,57 @@ def test_a_particle_with_no_plane_in_reach_reads_neither_radius_nor_type_in_the_
     assert guarded and planes.count("radius[i]") == 1 and planes.count("ptype[i]") == 1
     both = particle_pass(Combination(normal="hertz", tangential="history", planes=True, cylinders=True))
     assert "if plane_near[i] != 0 or nplanes" not in both and re.search(r"\n +ri = radius\[i\]\n", both)
+
+
+def test_interleaved_fields_are_views_of_their_block_in_python_and_in_compiled_code():
+    """engine/state.py BLOCKS: a field of a block reads and writes the block's columns, through the Python
+    property and through the attribute in compiled code alike; the other fields keep their own arrays. Appending,
+    taking and re-ordering keep every field's values (the same values as without blocks)."""
+    from engine import state as particle_state
+    from engine.jit import njit
+
+    rng = np.random.default_rng(5)
+    n = 7
+    values = {f.name: rng.random((n,) + tuple(3 if d == "walls" else 2 if d == "history" else d for d in f.shape))
+              .astype(f.dtype) for f in particle_state.PARTICLE_FIELDS}
+    s = particle_state.append(particle_state.empty(3, 2), **values)
+    assert set(particle_state.BLOCKS) <= set(s._fields) and "x" not in s._fields and "pid" in s._fields
+    for name, value in values.items():
+        assert np.array_equal(getattr(s, name), value), name
+    block, first, width, scalar = particle_state.COLUMNS["v"]
+    assert np.shares_memory(s.v, getattr(s, block)) and np.array_equal(getattr(s, block)[:, first:first + 3], s.v)
+
+    @njit
+    def scale_v_and_read_radius(s, factor):
+        v = s.v
+        total = 0.0
+        for i in range(v.shape[0]):
+            v[i, 1] *= factor
+            total += s.radius[i]
+        return total
+
+    assert scale_v_and_read_radius(s, 2.0) == sum(values["radius"].tolist())
+    assert np.array_equal(s.v[:, 1], 2.0 * values["v"][:, 1]) and np.array_equal(s.v[:, 0], values["v"][:, 0])
+    order = np.array([6, 0, 5, 1, 4, 2, 3])
+    taken = particle_state.take(s, order)
+    particle_state.reorder(s, order)
+    for name in particle_state.FIELD_NAMES:
+        assert np.array_equal(getattr(s, name), getattr(taken, name)), name
+    assert np.array_equal(s.x, values["x"][order]) and np.array_equal(s.pid, values["pid"][order])
+
+
+def test_the_compiled_kernels_index_the_blocks_by_constant_columns():
+    """What compiles (kernels.laid_out) reads and writes a field of a block as its column, x[j, 1] as hot[j, 1],
+    in every function that binds the blocks; only the source as generated names the fields."""
+    from engine import state as particle_state
+
+    named = generate_source(Combination(normal="hertz", tangential="history", planes=True, gravity=True))
+    compiled = kernels.laid_out(named)
+    fields = "|".join(particle_state.COLUMNS)
+    assert re.search(rf"\b({fields})\[[a-z]+, [0-9]\]", named)
+    assert not re.search(rf"\b({fields})\[[a-z]+(, [0-9])?\]", compiled)
+    for name, (block, first, width, scalar) in particle_state.COLUMNS.items():
+        for column in range(width):
+            if (f"{name}[j]" if scalar else f"{name}[j, {column}]") in named:
+                assert f"{block}[j, {first + column}]" in compiled
+    assert "dx = xi0 - hot[j, 0]" in compiled
