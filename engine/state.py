@@ -25,7 +25,7 @@ import numpy as np
 from numba import literal_unroll, types
 from numba.extending import overload_attribute
 
-from .jit import njit
+from .jit import content_key, njit
 
 
 @dataclass(frozen=True)
@@ -93,8 +93,6 @@ ParticleState = type("ParticleState", (namedtuple("_StoredState", STORED),),
                       "__doc__": "Per-particle arrays: a block per entry of BLOCKS, (n, doubles per row), its fields "
                                  "interleaved, and an array per other field; every field of PARTICLE_FIELDS reads as "
                                  "an attribute (a view into its block), in Python and in compiled code.",
-                      # engine/jit.py puts this in the key of machine code compiled for a state
-                      "layout_key": repr(sorted(BLOCKS.items())),
                       **{name: property(lambda s, name=name: _view(getattr(s, COLUMNS[name][0]), name),
                                         doc=f"{name}: columns of {COLUMNS[name][0]} (a view)") for name in COLUMNS}})
 
@@ -120,6 +118,9 @@ def _attribute_in_compiled_code(name: str):
 
 for _name in COLUMNS:
     _attribute_in_compiled_code(_name)
+# engine/jit.py puts this in the key of machine code compiled for a state: the layout, and the code that makes
+# s.x a view in compiled code (machine code keyed by the functions' own text alone would not see it change)
+ParticleState.layout_key = f"{sorted(BLOCKS.items())} {content_key(_attribute_in_compiled_code)}"
 
 
 #: an indexed read or write of an interleaved field in generated source: name[row] or name[row, column]

@@ -386,6 +386,14 @@ def test_interleaved_fields_are_views_of_their_block_in_python_and_in_compiled_c
     for name in particle_state.FIELD_NAMES:
         assert np.array_equal(getattr(s, name), getattr(taken, name)), name
     assert np.array_equal(s.x, values["x"][order]) and np.array_equal(s.pid, values["pid"][order])
+    # machine code compiled for a state is keyed by the layout and by the code that makes s.x a view
+    from numba import typeof
+
+    from engine.jit import _record_fields, content_key
+    named = []
+    _record_fields((typeof(s),), named)
+    assert named[0].endswith(content_key(particle_state._attribute_in_compiled_code))
+    assert "('hot', (('x', 'radius', 'v', 'omega', 'mass'), 11))" in named[0]
 
 
 def test_the_compiled_kernels_index_the_blocks_by_constant_columns():
