@@ -10,7 +10,7 @@ serial loop would have added them. The rows are ordered by partner (rows rstart[
 bitwise the same on any number of threads, and the same as a serial half-list loop (engine/kernels.py).
 
 A rebuild (1) wraps periodic coordinates, (2) removes particles that left a fixed box, (3) re-orders the
-particles by cell, the cells in Morton order (`_morton_spread`), so that neighbors are close in memory, (4) builds the list and its reverse index, and (5)
+particles by cell so that neighbors are close in memory, (4) builds the list and its reverse index, and (5)
 carries every pair's contact history over to the new list (history rows follow their pair through the
 re-ordering; a pair that swaps its i/j roles gets each history column multiplied by its law's transfer factor,
 engine.models.Law.transfer: -1 for the vectors antisymmetric in i and j). The loops over particles run on all threads; what they write depends only on
@@ -51,7 +51,7 @@ NeighborList = namedtuple("NeighborList", ["start", "j", "hist", "rstart", "rslo
 #: particles removed for leaving a fixed axis' range: ids, steps, and count[0] entries used
 LostParticles = namedtuple("LostParticles", ["ids", "steps", "count"])
 
-#: cell codes (_morton_spread) per particle above which the cell grid is coarsened, keeps memory linear in N
+#: bins per particle above which the cell grid is coarsened, keeps memory linear in N
 MAX_CELLS_PER_PARTICLE = 8
 
 
@@ -199,30 +199,21 @@ def _neighbor_cells(c, nc, periodic):
     return mx, my, mz, (x0, x1, x2), (y0, y1, y2), (z0, z1, z2)
 
 
-@njit(cache=True, error_model="numpy")
-def _morton_spread(nc):
-    """The Morton (Z-order) code of the cell grid, per axis: code of cell (cx, cy, cz) = spread[0, cx] |
-    spread[1, cy] | spread[2, cz], and the number of codes (a power of two, at most 8 times the cells).
-
-    Each axis takes as many bits as its cell count needs; level by level from the lowest bit, z takes the lowest
-    bit of the level, then y, then x (an axis whose bits are used up drops out). Cells close in space are then
-    close in the order along all three axes (thesis 2.4): the partners of a particle are at most a few hundred
-    rows away in a dense bed, where the row-major order (x slowest) put its x neighbours a whole y-z plane of
-    cells away (engine/README.md "Particle order")."""
-    bits = np.zeros(3, dtype=np.int64)
-    for a in range(3):
-        while (1 << bits[a]) < nc[a]:
-            bits[a] += 1
-    spread = np.zeros((3, max(nc[0], nc[1], nc[2])), dtype=np.int64)
-    position = 0
-    for level in range(max(bits[0], bits[1], bits[2])):
-        for a in (2, 1, 0):
-            if level < bits[a]:
-                for c in range(nc[a]):
-                    if (c >> level) & 1:
-                        spread[a, c] |= 1 << position
-                position += 1
-    return spread, 1 << position
+@njit(cache=True, error_model="numpy", inline="always")
+def _z_runs(cz, nc, periodic):
+    """The neighbor cells of cell row cz along the last axis as runs of consecutive cells, in increasing order:
+    (how many runs, first cell and end of run 1, of run 2). Cells that follow each other along the last axis
+    follow each other in the sorted particles, so a run of cells is one run of particles: a single loop instead
+    of one per cell (each loop's end is a branch hard to predict)."""
+    if periodic and nc >= 3 and (cz == 0 or cz == nc - 1):  # split by the wrap: 0, 1 | nc - 1 or 0 | nc - 2, nc - 1
+        if cz == 0:
+            return 2, 0, 2, nc - 1, nc
+        return 2, 0, 1, nc - 2, nc
+    if periodic:
+        if nc >= 3:
+            return 1, cz - 1, cz + 2, 0, 0
+        return 1, 0, nc, 0, 0
+    return 1, max(cz - 1, 0), min(cz + 1, nc - 1) + 1, 0, 0
 
 
 @njit(cache=True, error_model="numpy")
@@ -255,40 +246,37 @@ def _wrap(x, n, lo, hi, periodic, keep):
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _cells(x, order, origin, cell_size, nc, spread, cell_of, code_of):
-    """Cell of each kept particle (order[q] is its index): its row-major index (cx nc[1] + cy) nc[2] + cz, and
-    its Morton code (_morton_spread)."""
+def _cells(x, order, origin, cell_size, nc, cell_of):
+    """Cell of each kept particle (order[q] is its index)."""
     for q in prange(order.shape[0]):
         i = order[q]
         c = 0
-        code = 0
         for a in range(3):
             ca = int((x[i, a] - origin[a]) / cell_size[a])
             ca = min(max(ca, 0), nc[a] - 1)
             c = c * nc[a] + ca
-            code |= spread[a, ca]
         cell_of[q] = c
-        code_of[q] = code
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _candidates(cell, cell_start, nc, spread, periodic, count):
-    """Upper bound of each particle's neighbors j > i: the particles of its neighbor cells after it (the
-    particles of the cell with Morton code k are cell_start[k] ... cell_start[k + 1] - 1)."""
+def _candidates(cell, cell_start, nc, periodic, count):
+    """Upper bound of each particle's neighbors j > i: the particles of its neighbor cells after it."""
     for i in prange(cell.shape[0]):
-        mx, my, mz, ox, oy, oz = _neighbor_cells(cell[i], nc, periodic)
+        c = cell[i]
+        mx, my, _, ox, oy, _ = _neighbor_cells(c, nc, periodic)
+        runs, za0, za1, zb0, zb1 = _z_runs(c % nc[2], nc[2], periodic[2])
         total = 0
         for qa in range(mx):
             for qb in range(my):
-                column = spread[0, ox[qa]] | spread[1, oy[qb]]
-                for qc in range(mz):
-                    k = column | spread[2, oz[qc]]
-                    total += max(0, cell_start[k + 1] - max(cell_start[k], i + 1))
+                row = (ox[qa] * nc[1] + oy[qb]) * nc[2]
+                total += max(0, cell_start[row + za1] - max(cell_start[row + za0], i + 1))
+                if runs == 2:
+                    total += max(0, cell_start[row + zb1] - max(cell_start[row + zb0], i + 1))
         count[i] = total
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _search(x, radius, cell, cell_start, nc, spread, periodic, box, skin, slot, found, count):
+def _search(x, radius, cell, cell_start, nc, periodic, box, skin, slot, found, count):
     """Neighbors j > i within r_i + r_j + skin into found[slot[i]:], their number into count[i]."""
     p0 = periodic[0]
     p1 = periodic[1]
@@ -297,19 +285,22 @@ def _search(x, radius, cell, cell_start, nc, spread, periodic, box, skin, slot, 
     b1 = box[1]
     b2 = box[2]
     for i in prange(cell.shape[0]):
-        mx, my, mz, ox, oy, oz = _neighbor_cells(cell[i], nc, periodic)
+        c = cell[i]
+        mx, my, _, ox, oy, _ = _neighbor_cells(c, nc, periodic)
         ri = radius[i]
         # i's position in locals: the stores into found might alias x for all the compiler knows
         xi0 = x[i, 0]
         xi1 = x[i, 1]
         xi2 = x[i, 2]
+        runs, za0, za1, zb0, zb1 = _z_runs(c % nc[2], nc[2], p2)
         m = slot[i]
         for qa in range(mx):
             for qb in range(my):
-                column = spread[0, ox[qa]] | spread[1, oy[qb]]
-                for qc in range(mz):
-                    k = column | spread[2, oz[qc]]
-                    for j in range(max(cell_start[k], i + 1), cell_start[k + 1]):
+                row = (ox[qa] * nc[1] + oy[qb]) * nc[2]
+                for run in range(runs):
+                    first = row + (za0 if run == 0 else zb0)
+                    end = row + (za1 if run == 0 else zb1)
+                    for j in range(max(cell_start[first], i + 1), cell_start[end]):
                         d0 = xi0 - x[j, 0]
                         d1 = xi1 - x[j, 1]
                         d2 = xi2 - x[j, 2]
@@ -331,8 +322,8 @@ def _search(x, radius, cell, cell_start, nc, spread, periodic, box, skin, slot, 
 def _compact(found, slot, start, new_j):
     """Each row from the candidate slots into the list, j increasing (the order of the force sums)."""
     for i in prange(start.shape[0] - 1):
-        # insertion sort while copying: a row is short (the search visits the neighbor cells by axis, not in the
-        # order of their codes); np.sort would allocate a new array per row
+        # insertion sort while copying: a row is short and, but across a periodic boundary, already in order (the
+        # search visits the neighbor cells in increasing index); np.sort would allocate a new array per row
         s0 = start[i]
         for m in range(start[i + 1] - s0):
             value = found[slot[i] + m]
@@ -423,15 +414,6 @@ def _drop_lost(x, n, lo, hi, periodic, pid, step, lost):
     return kept
 
 
-@njit(cache=True, error_model="numpy", inline="always")
-def _power_of_two_above(count):
-    """The smallest power of two >= count."""
-    p = 1
-    while p < count:
-        p *= 2
-    return p
-
-
 @njit(cache=True, error_model="numpy")
 def _grid(x, radius, kept, lo, box, periodic, skin):
     """(origin, cell size, cells per axis) of the cell grid: periodic axes span the box, fixed axes only the
@@ -463,9 +445,7 @@ def _grid(x, radius, kept, lo, box, periodic, skin):
     while True:
         for a in range(3):
             nc[a] = max(1, int(extent[a] / cell)) if periodic[a] else int(extent[a] / cell) + 1
-        # the bound holds for the Morton codes (_morton_spread), of which there are up to 8 per cell
-        if _power_of_two_above(nc[0]) * _power_of_two_above(nc[1]) * _power_of_two_above(nc[2]) <= \
-                MAX_CELLS_PER_PARTICLE * nk + 64:
+        if nc[0] * nc[1] * nc[2] <= MAX_CELLS_PER_PARTICLE * nk + 64:
             break
         cell *= 1.25
     cell_size = np.empty(3)
@@ -475,35 +455,35 @@ def _grid(x, radius, kept, lo, box, periodic, skin):
 
 
 @njit(cache=True, error_model="numpy")
-def _sort_by_cell(cell_of, code_of, kept, ncodes):
-    """Counting sort of the kept particles by their cells' Morton codes (stable, so deterministic): (new order as
-    old indices, cell of each new index, first new index of each code)."""
+def _sort_by_cell(cell_of, kept, ncells):
+    """Counting sort of the kept particles by cell (stable, so deterministic): (new order as old indices, cell
+    of each new index, first new index of each cell)."""
     nk = kept.shape[0]
-    cell_start = _bucket_starts(code_of[:nk], ncodes)
+    cell_start = _bucket_starts(cell_of[:nk], ncells)
     fill = cell_start[:-1].copy()
     order = np.empty(nk, dtype=np.int64)
     new_cell = np.empty(nk, dtype=np.int64)
     for q in range(nk):
-        k = code_of[q]
-        order[fill[k]] = kept[q]
-        new_cell[fill[k]] = cell_of[q]
-        fill[k] += 1
+        c = cell_of[q]
+        order[fill[c]] = kept[q]
+        new_cell[fill[c]] = c
+        fill[c] += 1
     return order, new_cell, cell_start
 
 
 @njit(cache=True, error_model="numpy")
-def _pairs(x, radius, new_cell, cell_start, nc, spread, periodic, box, skin):
+def _pairs(x, radius, new_cell, cell_start, nc, periodic, box, skin):
     """The half list (start, j) of the sorted particles: pairs within r_i + r_j + skin, i < j: candidates per
     particle (an upper bound), then the search into each particle's own slot, then the rows packed and sorted."""
     nk = new_cell.shape[0]
     slot = np.empty(nk + 1, dtype=np.int64)
     slot[0] = 0
     count = np.empty(nk, dtype=np.int64)
-    _candidates(new_cell, cell_start, nc, spread, periodic, count)
+    _candidates(new_cell, cell_start, nc, periodic, count)
     for i in range(nk):
         slot[i + 1] = slot[i] + count[i]
     found = np.empty(slot[nk], dtype=np.int32)
-    _search(x, radius, new_cell, cell_start, nc, spread, periodic, box, skin, slot, found, count)
+    _search(x, radius, new_cell, cell_start, nc, periodic, box, skin, slot, found, count)
     new_start = np.empty(nk + 1, dtype=np.int64)
     new_start[0] = 0
     for i in range(nk):
@@ -526,13 +506,12 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer):
     kept = _drop_lost(x, n, lo, hi, periodic, s.pid, step, lost)
     nk = kept.shape[0]
     origin, cell_size, nc = _grid(x, s.radius, kept, lo, box, periodic, skin)
-    spread, ncodes = _morton_spread(nc)
+    ncells = nc[0] * nc[1] * nc[2]
     cell_of = np.empty(nk, dtype=np.int64)
-    code_of = np.empty(nk, dtype=np.int64)
-    _cells(x, kept, origin, cell_size, nc, spread, cell_of, code_of)
-    order, new_cell, cell_start = _sort_by_cell(cell_of, code_of, kept, ncodes)
+    _cells(x, kept, origin, cell_size, nc, cell_of)
+    order, new_cell, cell_start = _sort_by_cell(cell_of, kept, ncells)
     reorder(s, order)
-    new_start, new_j = _pairs(x, s.radius, new_cell, cell_start, nc, spread, periodic, box, skin)
+    new_start, new_j = _pairs(x, s.radius, new_cell, cell_start, nc, periodic, box, skin)
     m = new_start[nk]
     width = nbr.hist.shape[1]
     new_hist = np.empty((m if width > 0 else 0, width))

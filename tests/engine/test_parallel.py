@@ -164,8 +164,8 @@ def test_neighbor_list_matches_brute_force_after_reordering_and_loss(periodic):
 
 @pytest.mark.parametrize("height", [0.03, 0.05, 0.07, 0.2])
 def test_neighbor_list_matches_brute_force_with_few_periodic_cells_along_the_last_axis(height):
-    """The search visits each particle's distinct neighbor cells along the last axis (engine/neighbor.py
-    `_axis_cells`): one cell, two, three (wrapping on either side) and many, against brute force."""
+    """The search walks the neighbor cells along the last axis as runs of consecutive cells (engine/neighbor.py
+    `_z_runs`): one cell, two, three (a wrap on either side splits the run) and many, against brute force."""
     from engine.neighbor import _grid, empty_list, lost_record, rebuild
 
     lo, hi = np.array([-0.1, -0.1, 0.0]), np.array([0.1, 0.1, height])
@@ -180,59 +180,6 @@ def test_neighbor_list_matches_brute_force_with_few_periodic_cells_along_the_las
     pairs = listed_pairs(s, nbr, n)
     assert pairs == brute_force_pairs(s.x, s.radius, s.pid, lo, hi, periodic, skin)
     assert len(pairs) > n // 2  # dense enough that a cell left out would lose pairs
-
-
-def morton_code(cx: int, cy: int, cz: int, bits: list) -> int:
-    """The Morton code of a cell, bit by bit: level by level from the lowest, z's bit, then y's, then x's (an axis
-    with fewer bits drops out when they are used up)."""
-    code, position = 0, 0
-    for level in range(max(bits)):
-        for axis, c in ((2, cz), (1, cy), (0, cx)):
-            if level < bits[axis]:
-                code |= ((c >> level) & 1) << position
-                position += 1
-    return code
-
-
-def test_the_particles_follow_the_morton_order_of_their_cells():
-    """A rebuild orders the particles by the Morton code of their cell (engine/neighbor.py `_morton_spread`),
-    so that neighbours along all three axes stay close in memory: in a dense lattice most pairs are a few rows
-    apart, where the row-major cell order put every x neighbour a y-z plane of cells away."""
-    from engine import state as particle_state
-    from engine.neighbor import _grid, _morton_spread, empty_list, lost_record, rebuild
-
-    nc = np.array([5, 3, 9])
-    spread, codes = _morton_spread(nc)
-    assert codes == 2 ** (3 + 2 + 4)
-    expected = {(cx, cy, cz): morton_code(cx, cy, cz, [3, 2, 4]) for cx in range(5) for cy in range(3)
-                for cz in range(9)}
-    assert {c: spread[0, c[0]] | spread[1, c[1]] | spread[2, c[2]] for c in expected} == expected
-    assert len(set(expected.values())) == 5 * 3 * 9
-
-    # a simple cubic lattice of 32 x 32 x 8 touching spheres, shuffled
-    r, skin = 0.001, 0.0002
-    sites = np.stack(np.meshgrid(np.arange(32), np.arange(32), np.arange(8), indexing="ij"), axis=-1).reshape(-1, 3)
-    n = len(sites)
-    x = (sites * 2 * r + r)[np.random.default_rng(3).permutation(n)]
-    lo, hi, periodic = np.zeros(3), np.array([0.064, 0.064, 0.016]), np.zeros(3, dtype=bool)
-    s = particle_state.append(particle_state.empty(1, 3), x=x, radius=np.full(n, r), mass=np.ones(n),
-                              pid=np.arange(1, n + 1), x_build=x.copy(), wall_hist=np.zeros((n, 1, 3)))
-    kept, nbr = rebuild(s, n, empty_list(3), lo, hi, periodic, skin, 1, lost_record(n), -np.ones(3))
-    assert kept == n
-    origin, cell_size, cells = _grid(s.x, s.radius, np.arange(n), lo, hi - lo, periodic, skin)
-    cell = np.clip(((s.x - origin) / cell_size).astype(int), 0, cells - 1)
-    bits = [int(c - 1).bit_length() for c in cells]
-    order = [morton_code(*c, bits) for c in cell.tolist()]
-    assert order == sorted(order)
-
-    pairs = listed_pairs(s, nbr, n)
-    assert len(pairs) == 3 * 32 * 32 * 8 - 32 * 8 - 32 * 8 - 32 * 32  # the lattice's contacts
-    i = np.repeat(np.arange(n), np.diff(nbr.start))
-    near = np.mean(nbr.j - i <= 64)
-    row_major = np.lexsort((cell[:, 2], cell[:, 1], cell[:, 0]))  # the order of the cells counted x, y, z
-    rank = np.empty(n, dtype=np.int64)
-    rank[row_major] = np.arange(n)
-    assert near > 0.8 and near > np.mean(np.abs(rank[nbr.j] - rank[i]) <= 64) + 0.1
 
 
 def test_every_thread_gets_an_equal_share_of_the_pair_blocks():
