@@ -54,10 +54,6 @@ LostParticles = namedtuple("LostParticles", ["ids", "steps", "count"])
 #: bins per particle above which the cell grid is coarsened, keeps memory linear in N
 MAX_CELLS_PER_PARTICLE = 8
 
-#: cells per row of a strip (_strip_width): the particles of about this many cells lie between a particle and its
-#: partners one cell further along x
-STRIP_CELLS = 128
-
 
 def stale_band(n: int) -> dict:
     """The band fields of a list of n particles, to be computed before the next force evaluation."""
@@ -221,24 +217,6 @@ def _z_runs(cz, nc, periodic):
 
 
 @njit(cache=True, error_model="numpy")
-def _strip_width(nc):
-    """Cells along y per strip of the particle order: STRIP_CELLS // nc[2], at least 4 (a narrower strip would
-    send most y neighbours to the next strip), at most nc[1] (one strip: the row-major order)."""
-    return min(max(4, STRIP_CELLS // nc[2]), nc[1])
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _column(cx, cy, nc, width):
-    """Place in the particle order of cell (cx, cy, 0); cell (cx, cy, cz) follows at + cz. The cells are ordered
-    in strips `width` cells wide along y: strip by strip, and in each row-major (x, then y, then z). In the
-    row-major order of the whole grid a particle's partners one cell further along x are a whole y-z plane of
-    cells ahead (3,500 particles in a dense bed of 1,000,000: more than the L2 cache holds of them); in a strip
-    they are width x nc[2] cells ahead, and only the partners across a strip's edge are far away."""
-    strip = cy // width
-    return ((strip * nc[0] + cx) * width + cy - strip * width) * nc[2]
-
-
-@njit(cache=True, error_model="numpy")
 def _find(row, value):
     """Index of value in the sorted array row, or -1."""
     lo = 0
@@ -268,22 +246,21 @@ def _wrap(x, n, lo, hi, periodic, keep):
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _cells(x, order, origin, cell_size, nc, width, cell_of, place_of):
-    """Cell of each kept particle (order[q] is its index): its row-major index (cx nc[1] + cy) nc[2] + cz, and
-    its place in the particle order (_column)."""
+def _cells(x, order, origin, cell_size, nc, cell_of):
+    """Cell of each kept particle (order[q] is its index)."""
     for q in prange(order.shape[0]):
         i = order[q]
-        cx = min(max(int((x[i, 0] - origin[0]) / cell_size[0]), 0), nc[0] - 1)
-        cy = min(max(int((x[i, 1] - origin[1]) / cell_size[1]), 0), nc[1] - 1)
-        cz = min(max(int((x[i, 2] - origin[2]) / cell_size[2]), 0), nc[2] - 1)
-        cell_of[q] = (cx * nc[1] + cy) * nc[2] + cz
-        place_of[q] = _column(cx, cy, nc, width) + cz
+        c = 0
+        for a in range(3):
+            ca = int((x[i, a] - origin[a]) / cell_size[a])
+            ca = min(max(ca, 0), nc[a] - 1)
+            c = c * nc[a] + ca
+        cell_of[q] = c
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _candidates(cell, cell_start, nc, width, periodic, count):
-    """Upper bound of each particle's neighbors j > i: the particles of its neighbor cells after it (the
-    particles of the cell at place k of the order (_column) are cell_start[k] ... cell_start[k + 1] - 1)."""
+def _candidates(cell, cell_start, nc, periodic, count):
+    """Upper bound of each particle's neighbors j > i: the particles of its neighbor cells after it."""
     for i in prange(cell.shape[0]):
         c = cell[i]
         mx, my, _, ox, oy, _ = _neighbor_cells(c, nc, periodic)
@@ -291,7 +268,7 @@ def _candidates(cell, cell_start, nc, width, periodic, count):
         total = 0
         for qa in range(mx):
             for qb in range(my):
-                row = _column(ox[qa], oy[qb], nc, width)
+                row = (ox[qa] * nc[1] + oy[qb]) * nc[2]
                 total += max(0, cell_start[row + za1] - max(cell_start[row + za0], i + 1))
                 if runs == 2:
                     total += max(0, cell_start[row + zb1] - max(cell_start[row + zb0], i + 1))
@@ -299,7 +276,7 @@ def _candidates(cell, cell_start, nc, width, periodic, count):
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _search(x, radius, cell, cell_start, nc, width, periodic, box, skin, slot, found, count):
+def _search(x, radius, cell, cell_start, nc, periodic, box, skin, slot, found, count):
     """Neighbors j > i within r_i + r_j + skin into found[slot[i]:], their number into count[i]."""
     p0 = periodic[0]
     p1 = periodic[1]
@@ -319,7 +296,7 @@ def _search(x, radius, cell, cell_start, nc, width, periodic, box, skin, slot, f
         m = slot[i]
         for qa in range(mx):
             for qb in range(my):
-                row = _column(ox[qa], oy[qb], nc, width)
+                row = (ox[qa] * nc[1] + oy[qb]) * nc[2]
                 for run in range(runs):
                     first = row + (za0 if run == 0 else zb0)
                     end = row + (za1 if run == 0 else zb1)
@@ -478,35 +455,35 @@ def _grid(x, radius, kept, lo, box, periodic, skin):
 
 
 @njit(cache=True, error_model="numpy")
-def _sort_by_cell(cell_of, place_of, kept, places):
-    """Counting sort of the kept particles by their cells' places in the order (stable, so deterministic): (new
-    order as old indices, cell of each new index, first new index of each place)."""
+def _sort_by_cell(cell_of, kept, ncells):
+    """Counting sort of the kept particles by cell (stable, so deterministic): (new order as old indices, cell
+    of each new index, first new index of each cell)."""
     nk = kept.shape[0]
-    cell_start = _bucket_starts(place_of[:nk], places)
+    cell_start = _bucket_starts(cell_of[:nk], ncells)
     fill = cell_start[:-1].copy()
     order = np.empty(nk, dtype=np.int64)
     new_cell = np.empty(nk, dtype=np.int64)
     for q in range(nk):
-        k = place_of[q]
-        order[fill[k]] = kept[q]
-        new_cell[fill[k]] = cell_of[q]
-        fill[k] += 1
+        c = cell_of[q]
+        order[fill[c]] = kept[q]
+        new_cell[fill[c]] = c
+        fill[c] += 1
     return order, new_cell, cell_start
 
 
 @njit(cache=True, error_model="numpy")
-def _pairs(x, radius, new_cell, cell_start, nc, width, periodic, box, skin):
+def _pairs(x, radius, new_cell, cell_start, nc, periodic, box, skin):
     """The half list (start, j) of the sorted particles: pairs within r_i + r_j + skin, i < j: candidates per
     particle (an upper bound), then the search into each particle's own slot, then the rows packed and sorted."""
     nk = new_cell.shape[0]
     slot = np.empty(nk + 1, dtype=np.int64)
     slot[0] = 0
     count = np.empty(nk, dtype=np.int64)
-    _candidates(new_cell, cell_start, nc, width, periodic, count)
+    _candidates(new_cell, cell_start, nc, periodic, count)
     for i in range(nk):
         slot[i + 1] = slot[i] + count[i]
     found = np.empty(slot[nk], dtype=np.int32)
-    _search(x, radius, new_cell, cell_start, nc, width, periodic, box, skin, slot, found, count)
+    _search(x, radius, new_cell, cell_start, nc, periodic, box, skin, slot, found, count)
     new_start = np.empty(nk + 1, dtype=np.int64)
     new_start[0] = 0
     for i in range(nk):
@@ -529,14 +506,12 @@ def rebuild(s, n, nbr, lo, hi, periodic, skin, step, lost, transfer):
     kept = _drop_lost(x, n, lo, hi, periodic, s.pid, step, lost)
     nk = kept.shape[0]
     origin, cell_size, nc = _grid(x, s.radius, kept, lo, box, periodic, skin)
-    width = _strip_width(nc)
-    places = (nc[1] + width - 1) // width * width * nc[0] * nc[2]  # the last strip may be narrower
+    ncells = nc[0] * nc[1] * nc[2]
     cell_of = np.empty(nk, dtype=np.int64)
-    place_of = np.empty(nk, dtype=np.int64)
-    _cells(x, kept, origin, cell_size, nc, width, cell_of, place_of)
-    order, new_cell, cell_start = _sort_by_cell(cell_of, place_of, kept, places)
+    _cells(x, kept, origin, cell_size, nc, cell_of)
+    order, new_cell, cell_start = _sort_by_cell(cell_of, kept, ncells)
     reorder(s, order)
-    new_start, new_j = _pairs(x, s.radius, new_cell, cell_start, nc, width, periodic, box, skin)
+    new_start, new_j = _pairs(x, s.radius, new_cell, cell_start, nc, periodic, box, skin)
     m = new_start[nk]
     width = nbr.hist.shape[1]
     new_hist = np.empty((m if width > 0 else 0, width))
