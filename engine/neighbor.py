@@ -276,9 +276,8 @@ def _candidates(cell, cell_start, nc, periodic, count):
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _search(sphere, cell, cell_start, nc, periodic, box, skin, slot, found, count):
-    """Neighbors j > i within r_i + r_j + skin into found[slot[i]:], their number into count[i]; sphere[i] is
-    (x, y, z, r) of particle i."""
+def _search(x, radius, cell, cell_start, nc, periodic, box, skin, slot, found, count):
+    """Neighbors j > i within r_i + r_j + skin into found[slot[i]:], their number into count[i]."""
     p0 = periodic[0]
     p1 = periodic[1]
     p2 = periodic[2]
@@ -288,11 +287,11 @@ def _search(sphere, cell, cell_start, nc, periodic, box, skin, slot, found, coun
     for i in prange(cell.shape[0]):
         c = cell[i]
         mx, my, _, ox, oy, _ = _neighbor_cells(c, nc, periodic)
-        ri = sphere[i, 3]
-        # i's position in locals: the stores into found might alias sphere for all the compiler knows
-        xi0 = sphere[i, 0]
-        xi1 = sphere[i, 1]
-        xi2 = sphere[i, 2]
+        ri = radius[i]
+        # i's position in locals: the stores into found might alias x for all the compiler knows
+        xi0 = x[i, 0]
+        xi1 = x[i, 1]
+        xi2 = x[i, 2]
         runs, za0, za1, zb0, zb1 = _z_runs(c % nc[2], nc[2], p2)
         m = slot[i]
         for qa in range(mx):
@@ -302,31 +301,21 @@ def _search(sphere, cell, cell_start, nc, periodic, box, skin, slot, found, coun
                     first = row + (za0 if run == 0 else zb0)
                     end = row + (za1 if run == 0 else zb1)
                     for j in range(max(cell_start[first], i + 1), cell_start[end]):
-                        d0 = xi0 - sphere[j, 0]
-                        d1 = xi1 - sphere[j, 1]
-                        d2 = xi2 - sphere[j, 2]
+                        d0 = xi0 - x[j, 0]
+                        d1 = xi1 - x[j, 1]
+                        d2 = xi2 - x[j, 2]
                         if p0:
                             d0 -= b0 * np.rint(d0 / b0)
                         if p1:
                             d1 -= b1 * np.rint(d1 / b1)
                         if p2:
                             d2 -= b2 * np.rint(d2 / b2)
-                        cut = ri + sphere[j, 3] + skin
+                        cut = ri + radius[j] + skin
                         # every candidate written at the next slot, which only a neighbor keeps: no branch to
                         # mispredict (about 1 candidate in 6 is a neighbor; the row's slots hold all candidates)
                         found[m] = j
                         m += d0 * d0 + d1 * d1 + d2 * d2 < cut * cut
         count[i] = m - slot[i]
-
-
-@njit(cache=True, error_model="numpy", parallel=PARALLEL)
-def _spheres(x, radius, sphere):
-    """sphere[i] = (x, y, z, r) of particle i: the search reads each particle about 30 times (once per particle
-    of its neighbor cells), from 32 B rows instead of the 88 B rows of the state's `hot` block."""
-    for i in prange(sphere.shape[0]):
-        for a in range(3):
-            sphere[i, a] = x[i, a]
-        sphere[i, 3] = radius[i]
 
 
 @njit(cache=True, error_model="numpy", parallel=PARALLEL)
@@ -494,9 +483,7 @@ def _pairs(x, radius, new_cell, cell_start, nc, periodic, box, skin):
     for i in range(nk):
         slot[i + 1] = slot[i] + count[i]
     found = np.empty(slot[nk], dtype=np.int32)
-    sphere = np.empty((nk, 4))
-    _spheres(x, radius, sphere)
-    _search(sphere, new_cell, cell_start, nc, periodic, box, skin, slot, found, count)
+    _search(x, radius, new_cell, cell_start, nc, periodic, box, skin, slot, found, count)
     new_start = np.empty(nk + 1, dtype=np.int64)
     new_start[0] = 0
     for i in range(nk):
