@@ -37,6 +37,8 @@ def main() -> int:
             ("regressions", f"/regressions/?machine={s['ws1'].pk}"),
             ("search listing runs", "/?q=bulk"),
             ("overview", "/"),
+            ("scaling studies", "/scaling/"),
+            ("timing breakdown", f"/breakdown/{s['master'].pk}/{s['inconsistent'].testcase.path}/"),
         ]
         if args.profile:
             # only for --profile

@@ -4,7 +4,6 @@ The store is filled through the ORM; profiles are real folded-stack files in run
 from __future__ import annotations
 
 import re
-import time
 from datetime import datetime, timedelta, timezone
 
 from dashboard_data import FolderTestCase
@@ -151,15 +150,26 @@ class EfficiencyPagesTest(FolderTestCase):
         self.assertIn("has no profile", self.client.get(f"/runs/{unprofiled.pk}/profile/").content.decode())
         self.assertEqual(self.client.get(f"/profiles/diff.json?run={a.pk}").status_code, 400)
 
-    def test_efficiency_pages_stay_under_a_second_with_ten_thousand_runs(self):
+    def test_efficiency_pages_take_as_many_queries_with_ten_thousand_more_runs(self):
+        """Each page's SQL queries are a fixed set, whatever the store holds: 10,000 more runs of the same target
+        and build add rows to what the queries return, never a query per run. (Their time with 10,000 runs is a
+        benchmark's, `python benchmarks/dashboard_pages.py`: a timed test fails on a loaded machine.)"""
         from dashboard_data import add_bulk_runs
+        from django.db import connection
+        from django.test.utils import CaptureQueriesContext
 
-        add_bulk_runs(10_000, Machine.objects.get(name="ws"), self.target, self.builds[1])
         pages = ["/scaling/", f"/breakdown/{self.target.pk}/{self.case.path}/", f"/runs/{self.profiled[1].pk}/profile/",
                  f"/profiles/diff/?run={self.profiled[0].pk},{self.profiled[1].pk}"]
-        for url in pages:
-            started = time.perf_counter()
-            response = self.client.get(url)
-            elapsed = time.perf_counter() - started
-            self.assertEqual(response.status_code, 200, url)
-            self.assertLess(elapsed, 1.0, url)
+
+        def queries() -> dict:
+            counts = {}
+            for url in pages:
+                with CaptureQueriesContext(connection) as captured:
+                    response = self.client.get(url)
+                self.assertEqual(response.status_code, 200, url)
+                counts[url] = len(captured.captured_queries)
+            return counts
+
+        before = queries()
+        add_bulk_runs(10_000, Machine.objects.get(name="ws"), self.target, self.builds[1])
+        self.assertEqual(queries(), before)
