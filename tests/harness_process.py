@@ -4,12 +4,17 @@ every test folder (``pythonpath = ["tests"]`` in pyproject.toml puts this folder
 - ``harness``: ``python -m harness.cli --machine M --home HOME [--targets DIR] ARGS`` from the project folder;
 - ``records`` / ``series``: the run.json records of a target's runs and a series' columns in one;
 - ``run_code``: one run of a code in a folder with its adapter's command line (as ``harness run`` starts it);
-- ``git_repo`` / ``commit_files``: temporary git repositories for targets.
+- ``git_repo`` / ``commit_files``: temporary git repositories for targets;
+- ``free_port`` / ``stop_session``: a port for a test's server, and stopping the server's process group.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import random
+import signal
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -113,3 +118,37 @@ def commit_files(repo, files: dict, message: str, tag: str | None = None) -> str
     if tag:
         repo.create_tag(tag)
     return repo.head.commit.hexsha
+
+
+def free_port() -> int:
+    """A free TCP port on 127.0.0.1 below the kernel's ephemeral range.
+
+    A port the kernel hands out (binding port 0) is in the ephemeral range, which every outgoing connection on the
+    machine also draws its source port from: between this check and the server's bind, another connection - even
+    the test's own polling of the port - can take it, and the server then fails with "Address already in use".
+    Below the range only an explicit bind can take the port.
+    """
+    low = 32768
+    with contextlib.suppress(OSError, ValueError):
+        low = int(Path("/proc/sys/net/ipv4/ip_local_port_range").read_text().split()[0])
+    for _ in range(200):
+        port = random.randrange(10000, max(low, 10001))
+        with socket.socket() as probe:
+            try:
+                probe.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+            return port
+    raise RuntimeError(f"no free port between 10000 and {low}")
+
+
+def stop_session(process: subprocess.Popen, timeout: float = 30) -> None:
+    """Stop a server started with ``start_new_session=True`` and its children (it may have exited already)."""
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(process.pid, signal.SIGTERM)
+    try:
+        process.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
+        process.wait(timeout=timeout)

@@ -12,8 +12,6 @@ import json
 import os
 import re
 import shutil
-import signal
-import socket
 import sqlite3
 import subprocess
 import sys
@@ -25,6 +23,7 @@ import urllib.request
 from pathlib import Path
 
 import pytest
+from harness_process import free_port, stop_session
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path[:0] = [str(REPO / "tests" / "web"), str(REPO / "tests" / "harness")]
@@ -337,12 +336,6 @@ def server_env(tmp_path, **extra) -> dict:
     return env
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 class Server:
     """`python manage.py runserver` in its own session (the autoreloader's child goes with it)."""
 
@@ -370,9 +363,7 @@ class Server:
         return self.log.read_text()
 
     def stop(self):
-        if self.process.poll() is None:
-            os.killpg(self.process.pid, signal.SIGTERM)
-        self.process.wait(timeout=30)
+        stop_session(self.process)
 
 
 @pytest.fixture

@@ -4,13 +4,13 @@ from __future__ import annotations
 import argparse
 import os
 import secrets
-import signal
-import socket
 import subprocess
 import sys
 import time
 import urllib.error
 import urllib.request
+
+from harness_process import free_port, stop_session
 
 from harness.commands import serve
 from harness.execution.workspace import PROJECT_ROOT
@@ -41,12 +41,6 @@ def test_production_refuses_the_development_key(tmp_path):
     assert "HARNESS_SECRET_KEY: set 50 or more random characters for production" in done.stderr
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def test_harness_serve_serves_the_dashboard(tmp_path):
     parser = argparse.ArgumentParser()
     serve.configure(parser)
@@ -73,8 +67,7 @@ def test_harness_serve_serves_the_dashboard(tmp_path):
         assert b".bar" in css
         assert (tmp_path / "home" / "harness.sqlite3").is_file()  # migrated before serving
     finally:
-        os.killpg(process.pid, signal.SIGTERM)
-        process.wait(timeout=20)
+        stop_session(process)
 
 
 PRODUCTION_CLIENT = """
@@ -141,5 +134,4 @@ def test_harness_serve_production_runs_gunicorn_with_debug_off(tmp_path):
         assert (tmp_path / "prod-home" / "harness.sqlite3").is_file()   # the --home workspace, migrated
         assert (tmp_path / "prod-home" / "static" / "staticfiles.json").is_file()   # collected, hashed
     finally:
-        os.killpg(process.pid, signal.SIGTERM)
-        process.wait(timeout=30)
+        stop_session(process)

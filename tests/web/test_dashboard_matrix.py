@@ -11,8 +11,6 @@ import html as htmllib
 import json
 import os
 import re
-import signal
-import socket
 import sqlite3
 import subprocess
 import sys
@@ -22,6 +20,7 @@ import urllib.request
 from pathlib import Path
 
 import pytest
+from harness_process import free_port, stop_session
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "tests" / "harness"))
@@ -74,9 +73,7 @@ def workspace(tmp_path_factory):
 @pytest.fixture(scope="module")
 def server(workspace):
     home = workspace[0]
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    port = free_port()
     log = home / "server.log"
     process = subprocess.Popen([sys.executable, "manage.py", "runserver", "--noreload", f"127.0.0.1:{port}"],
                                cwd=REPO, env={**env(home), "DJANGO_SETTINGS_MODULE": "webfrontend.settings"},
@@ -96,8 +93,7 @@ def server(workspace):
                 time.sleep(0.3)
 
     yield get
-    os.killpg(process.pid, signal.SIGTERM)
-    process.wait(timeout=30)
+    stop_session(process)
 
 
 def test_the_dashboard_gives_the_json_harness_matrix_writes(workspace, server):
