@@ -9,7 +9,9 @@ the store's schema up to date as it opens it.
 """
 from __future__ import annotations
 
+import errno
 import os
+import socket
 import subprocess
 import sys
 
@@ -42,7 +44,27 @@ def environment() -> dict:
     return env
 
 
+def check_port_free(host: str, port: int) -> None:
+    """Raise a UserError naming the address when nothing can listen on it (another server holds it, or it is not
+    this machine's); the servers alone would report it after their start-up, gunicorn after five seconds of
+    retries."""
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except socket.gaierror as error:
+        raise UserError(f"serve: --host {host}: {error.strerror}") from None
+    family, _type, _proto, _name, address = infos[0]
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
+        # as the servers bind: a port left in TIME_WAIT by a server that just stopped is free to them
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind(address)
+        except OSError as error:
+            raise UserError(f"serve: cannot listen on {host}:{port}: {error.strerror}"
+                            f"{' (another server?): choose another --port' if error.errno == errno.EADDRINUSE else ''}") from None
+
+
 def run(args) -> int:
+    check_port_free(args.host, args.port)
     env = environment()
     settings = "webfrontend.settings_production" if args.production else "webfrontend.settings"
     # the servers bring the store's schema up to date as they open it (harness.store.schema.ensure_schema)

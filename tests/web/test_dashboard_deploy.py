@@ -4,11 +4,14 @@ from __future__ import annotations
 import argparse
 import os
 import secrets
+import socket
 import subprocess
 import sys
 import time
 import urllib.error
 import urllib.request
+
+import pytest
 
 from harness_process import free_port, stop_session
 
@@ -68,6 +71,22 @@ def test_harness_serve_serves_the_dashboard(tmp_path):
         assert (tmp_path / "home" / "harness.sqlite3").is_file()  # migrated before serving
     finally:
         stop_session(process)
+
+
+@pytest.mark.parametrize("production", [False, True])
+def test_harness_serve_names_a_port_in_use_at_once(tmp_path, production):
+    port = free_port()
+    env = env_for(tmp_path, HARNESS_SECRET_KEY=secrets.token_urlsafe(64), HARNESS_ALLOWED_HOSTS="harness.example.org")
+    with socket.socket() as holder:
+        holder.bind(("127.0.0.1", port))
+        holder.listen()
+        done = subprocess.run([sys.executable, "-m", "harness.cli", "serve", "--port", str(port),
+                               *(["--production"] if production else [])],
+                              cwd=PROJECT_ROOT, env=env, capture_output=True, text=True, timeout=120)
+    assert done.returncode != 0
+    assert done.stderr.strip().splitlines()[-1].endswith(
+        f"serve: cannot listen on 127.0.0.1:{port}: Address already in use (another server?): choose another --port")
+    assert not (tmp_path / "home" / "static").exists()   # stopped before collecting anything
 
 
 PRODUCTION_CLIENT = """
