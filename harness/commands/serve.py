@@ -59,8 +59,8 @@ def check_port_free(host: str, port: int) -> None:
         try:
             probe.bind(address)
         except OSError as error:
-            raise UserError(f"serve: cannot listen on {host}:{port}: {error.strerror}"
-                            f"{' (another server?): choose another --port' if error.errno == errno.EADDRINUSE else ''}") from None
+            hint = " (another server?): choose another --port" if error.errno == errno.EADDRINUSE else ""
+            raise UserError(f"serve: cannot listen on {host}:{port}: {error.strerror}{hint}") from None
 
 
 def run(args) -> int:

@@ -314,13 +314,24 @@ def _release(task: Task) -> None:
         task.lock.release()
 
 
-def time_left(tasks_left: list[Task], durations: list, slots: int) -> float | None:
+def pace(finished: list[tuple[float, float]]) -> float:
+    """How much longer than expected the runs finished so far took: sum of wall times / sum of expected times
+    over (expected, wall) pairs (s); 1.0 before any. The shipped times come from another machine with the
+    kernels cached (harness/execution/expected.py): on a slower machine, or while the engine compiles, every
+    run takes longer by about the same factor (a main job on 2 vCPUs of a machine about half as fast: 1.58 to
+    1.73 from its fourth run on, 1.68 in the end), and the time left is wrong by that factor unless scaled."""
+    expected = sum(e for e, _wall in finished)
+    return sum(wall for _e, wall in finished) / expected if expected > 0 else 1.0
+
+
+def time_left(tasks_left: list[Task], durations: list, slots: int, factor: float = 1.0) -> float | None:
     """An estimate of the time the runs not finished yet take (s): each its expected time (``Task.expected``: its
-    last wall time on this machine or the shipped one) or else the mean wall time of the runs finished so far,
-    summed over the parallel slots, and at least the longest of them (a 5-minute hopper left alone is 5
-    minutes, not the mean of the short runs). None when some run has neither figure."""
+    last wall time on this machine or the shipped one) times ``factor`` (``pace`` of the runs finished so far),
+    or else the mean wall time of the runs finished so far, summed over the parallel slots, and at least the
+    longest of them (a 5-minute hopper left alone is 5 minutes, not the mean of the short runs). None when some
+    run has neither figure."""
     mean = sum(durations) / len(durations) if durations else None
-    times = [task.expected if task.expected is not None else mean for task in tasks_left]
+    times = [task.expected * factor if task.expected is not None else mean for task in tasks_left]
     if not times or any(t is None for t in times):
         return None
     return max(sum(times) / max(slots, 1), max(times))
@@ -365,10 +376,11 @@ def run_order(tasks: list[Task]) -> list[Task]:
     return unknown + known
 
 
-def _started(task: Task, since: float, tasks_left: list[Task], durations: list, slots: int, out) -> None:
+def _started(task: Task, since: float, tasks_left: list[Task], durations: list, slots: int, factor: float,
+             out) -> None:
     """A line as a run starts: elapsed time and an estimate of what is left (``time_left``)."""
     elapsed = time.monotonic() - since
-    estimate = time_left(tasks_left, durations, slots)
+    estimate = time_left(tasks_left, durations, slots, factor)
     left = f", about {_duration(estimate)} left" if estimate is not None else ""
     target, testcase, run, commit = task.key
     out.write(fit_line("start ", f"{target}@{commit[:10]} {testcase}/{run}", f" ({_duration(elapsed)} elapsed{left})")
@@ -404,6 +416,8 @@ class _Execution:
         self.results: dict[tuple, Outcome] = {}
         self.waiting: set = set()
         self.durations: list[float] = []
+        #: (expected, wall) seconds of the runs finished here that had an expected time and succeeded (``pace``)
+        self.paced: list[tuple[float, float]] = []
         self.started = time.monotonic()
         self.planned = {task.key for task in tasks}
         self.pending: list[Task] = []
@@ -448,6 +462,9 @@ class _Execution:
         self.report.records.append(record)
         self.results[_record_key(record)] = Outcome(record.state, record.failure_reason, record.folder)
         self.durations.append(record.wall_time or 0.0)
+        # a run that failed early says nothing of how long the others take
+        if task is not None and task.expected and record.wall_time and record.state in SUCCESS_STATES:
+            self.paced.append((task.expected, record.wall_time))
         self.done_count += 1
         _progress(self.done_count, self.total, record, self.out)
 
@@ -510,7 +527,7 @@ class _Execution:
         store_record(in_flight)
         self.running[self.pool.submit(task.spec)] = task
         _started(task, self.started, self.pending + list(self.running.values()), self.durations, self.pool.slots,
-                 self.out)
+                 pace(self.paced), self.out)
 
     def collect(self) -> None:
         """Wait for at least one running run and store what came back."""

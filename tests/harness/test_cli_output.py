@@ -165,3 +165,12 @@ def test_the_time_left_expects_each_run_its_own_last_wall_time():
     assert time_left([drop, new], durations=[1.0, 3.0], slots=2) == 2.0        # a new run: the mean so far
     assert time_left([drop] * 6, durations=[], slots=2) == 3.0                 # six 1 s runs on two slots
     assert time_left([new], durations=[], slots=2) is None                     # nothing to go by
+    assert time_left([hopper, drop], durations=[1.0], slots=2, factor=1.5) == 435.0  # runs so far took 1.5x
+
+
+def test_the_time_left_scales_expected_times_by_the_pace_of_the_runs_so_far():
+    from harness.execution.scheduler import pace
+
+    assert pace([]) == 1.0
+    assert pace([(50.0, 62.0), (32.0, 50.0), (140.0, 238.0)]) == 350.0 / 222.0   # sums, not a mean of ratios
+    assert pace([(0.0, 3.0)]) == 1.0                                             # nothing expected to go by

@@ -3,8 +3,8 @@
 What a page may not do with more runs is draw more: each page is loaded once with 3,000 runs and once with
 10,000, and the second may not hold more elements than the first, beyond a margin for a few more distinct values
 (``MARGIN``). A page that listed or plotted every run would hold thousands more. The bulk runs are spread over 10
-test cases, so that with 3,000 each case's run list already fills a page (``DASHBOARD_LIST_PAGE_SIZE``, 200). Every plot box
-must have drawn (``data-drawn`` set by plots.js, not ``error``) both times.
+test cases, so that with 3,000 each case's run list already fills a page (``DASHBOARD_LIST_PAGE_SIZE``, 200).
+Every plot box must have drawn (``data-drawn`` set by plots.js, not ``error``) both times.
 
 Time is not asserted here: a test cannot tell a slow page from a busy machine. The load times of the 10,000-run
 pages, from the start of navigation until every plot has drawn, are written to test-artifacts/page_times.json
