@@ -46,6 +46,7 @@ from numba.core.caching import CompileResultCacheImpl, FunctionCache, IndexDataC
 from numba.core.dispatcher import Dispatcher
 from numba.core.extending import _Intrinsic
 from numba.core.runtime import rtsys
+from numba.np.ufunc.parallel import _launch_threads
 
 from . import cache_limit
 from .cache_limit import cache_dir
@@ -246,6 +247,13 @@ class _ContentCache(FunctionCache):
         # functions, scipy's BLAS check: about a second at each engine start) that only compiling needs; loading
         # machine code needs the runtime (NRT) alone, and a compilation refreshes the context itself
         rtsys.initialize(target_context)
+        # the threading layer before any machine code is linked in. Numba starts it for code whose cache entry says
+        # it runs parallel loops (`_reload_parfors`), and an entry says so only where Numba compiled such a loop
+        # itself: a function compiled while its parallel callees came from this cache (shared by every build, so
+        # at every commit that changes the caller alone) does not, and loaded first in a process its loops call
+        # into a layer nobody started - a segmentation fault (tests/engine/test_jit.py). Idempotent; the engine
+        # starts the layer anyway for its first parallel loop.
+        _launch_threads()
         with self._guard_against_spurious_io_errors():
             try:
                 loaded = self._load_overload(sig, target_context)

@@ -281,3 +281,49 @@ def test_a_cache_index_naming_a_class_this_build_lacks_is_compiled_anew(tmp_path
         assert done.returncode == 0, done.stderr[-2000:]
         outputs.append(done.stdout.split())
     assert outputs == [["3.0", "7.0"], ["7.0"], ["7.0"]]
+
+
+PARALLEL_CALLEE = '''
+import sys
+import numpy as np
+from numba import prange
+sys.path.insert(0, sys.argv[1])
+from engine.jit import njit
+
+
+@njit(cache=True, parallel=True)
+def total(x):
+    s = 0.0
+    for i in prange(x.shape[0]):
+        s += x[i]
+    return s
+
+
+@njit(cache=True)
+def total_plus_one(x):
+    return total(x) + 1.0
+
+
+function = total if sys.argv[2] == "total" else total_plus_one
+print(function(np.ones(1000)), function.stats.cache_hits.get(function.signatures[0], 0))
+'''
+
+
+def test_a_function_compiled_over_a_cached_parallel_callee_loads_first_in_a_process(tmp_path):
+    """The parallel callee compiled and cached first; then its caller compiled while the callee is loaded from
+    the cache (a commit that changes the caller alone): Numba marks only code whose parallel loop it compiled
+    itself as needing the threading layer. Loaded first in a new process, the caller used to die of a
+    segmentation fault in its loop (engine/jit.py starts the layer before loading)."""
+    import os
+    import subprocess
+
+    (tmp_path / "parallel.py").write_text(PARALLEL_CALLEE)
+    env = dict(os.environ, DEM_CACHE_DIR=str(tmp_path / "cache"))
+    engine_root = str(jit.Path(jit.__file__).parent.parent)
+    outputs = []
+    for function in ("total", "total_plus_one", "total_plus_one"):
+        done = subprocess.run([sys.executable, str(tmp_path / "parallel.py"), engine_root, function], env=env,
+                              capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, f"{function}: exit {done.returncode} {done.stderr[-2000:]}"
+        outputs.append(done.stdout.split())
+    assert outputs == [["1000.0", "0"], ["1001.0", "0"], ["1001.0", "1"]]   # compiled, compiled, loaded
