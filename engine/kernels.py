@@ -960,7 +960,7 @@ _functions: dict = {}
 
 def laid_out(source: str) -> str:
     """Generated source as compiled: in each function that binds the state's blocks, the fields read and written
-    by name (``x[j, 0]``, as `generate_source` writes them) indexed in their block (``hot[j, 0]``:
+    by name (``x[j, 0]``, as `generate_source` writes them) indexed in their block (``xr[j, 0]``:
     engine/state.py interleaved)."""
     return "".join(interleaved(part) if all(f"{b} = s.{b}\n" in part for b in BLOCKS) else part
                    for part in re.split(r"(?=^@njit)", source, flags=re.M))

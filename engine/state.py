@@ -6,12 +6,12 @@ dropping lost particles, the memory estimate, restart files - loops over it, so 
 
 `ParticleState` is a namedtuple of numpy arrays (Numba passes it to compiled functions as one argument and
 keeps its type across calls, so the compiled code reads ``s.x``, ``s.radius`` ...). The fields a contact reads
-and adds to of its partner are interleaved in blocks (`BLOCKS`), a row per particle (``s.hot``, ``s.acc``), so that
-a partner costs a few cache lines instead of one per field. ``s.x`` is a view of columns of its block, in Python
-(a property) and in compiled code (an attribute overload) alike; the generated kernels index the blocks directly
-(`interleaved`). The first axis of every array is the particle; compiled code works on the first ``n`` rows (a
-rebuild that drops particles compacts the survivors to the front in place, and Python trims the arrays to ``n``
-afterwards: `trimmed`).
+and adds to of its partner are interleaved in blocks (`BLOCKS`), a row per particle (``s.xr``, ``s.hot``,
+``s.acc``), so that a partner costs a few cache lines instead of one per field. ``s.x`` is a view of columns of
+its block, in Python (a property) and in compiled code (an attribute overload) alike; the generated kernels index
+the blocks directly (`interleaved`). The first axis of every array is the particle; compiled code works on the
+first ``n`` rows (a rebuild that drops particles compacts the survivors to the front in place, and Python trims
+the arrays to ``n`` afterwards: `trimmed`).
 
 Types are numbered from 1 in scripts and from 0 in ``ptype``.
 """
@@ -63,13 +63,16 @@ FIELD_NAMES = tuple(f.name for f in PARTICLE_FIELDS)
 
 #: blocks of interleaved fields: block name -> (its fields in column order, doubles per row). In the pair pass a
 #: partner j is a row in the middle of the particles, not the next one: each separate array it is read from costs
-#: a cache line of its own, and at a million particles those lines come from beyond the L2 cache. `hot` holds what
-#: a contact reads of j (x, radius, v, omega, mass: 88 B, two or three lines where there were five), `acc` what it
-#: adds to j (f, torque: 48 B, one or two lines where there were two). Wider rows measured slower at 1,000,000 (1/m,
-#: 1/I and x_build in `hot`, or f and torque with it; engine/README.md, "Particle layout"): the bytes between i and
-#: its farthest partner grow with the row. The other fields keep an array each. Arithmetic does not depend on the
-#: layout: results are bitwise the same.
-BLOCKS = {"hot": (("x", "radius", "v", "omega", "mass"), 11), "acc": (("f", "torque"), 6)}
+#: a cache line of its own, and at a million particles those lines come from beyond the L2 cache. `xr` holds what
+#: the distance test of every listed pair reads of j (x, radius: 32 B, half a line), `hot` what a contact reads
+#: besides (v, omega, mass: 56 B, one or two lines), `acc` what it adds to j (f, torque: 48 B, one or two lines):
+#: three or four lines for a contact where separate arrays took seven. x and radius in `hot` as well made the
+#: pair pass of falling spheres (listed pairs, few contacts) at 1,000,000 twice as slow: 88 B per partner where
+#: 32 B are read. Wider rows measured slower at 1,000,000 too (1/m, 1/I and x_build in `hot`, or f and torque
+#: with it; engine/README.md, "Particle layout"): the bytes between i and its farthest partner grow with the
+#: row. The other fields keep an array each. Arithmetic does not depend on the layout: results are bitwise the
+#: same.
+BLOCKS = {"xr": (("x", "radius"), 4), "hot": (("v", "omega", "mass"), 7), "acc": (("f", "torque"), 6)}
 #: field name -> (block, first column, columns, True for a scalar field)
 COLUMNS = {}
 for _block, (_names, _width) in BLOCKS.items():
@@ -129,7 +132,7 @@ _INDEXED = re.compile(r"\b(" + "|".join(COLUMNS) + r")\[([A-Za-z_]\w*)(?:, ([0-9
 
 def interleaved(code: str) -> str:
     """Generated source (engine/kernels.py) with every indexed access to an interleaved field, ``x[i, 1]`` or
-    ``radius[j]``, made one to its block, ``hot[i, 1]`` or ``hot[j, 3]``: the same numbers. The views (``x =
+    ``radius[j]``, made one to its block, ``xr[i, 1]`` or ``xr[j, 3]``: the same numbers. The views (``x =
     s.x``) are arrays of any layout to the compiler, each with its own base and strides; a C-ordered block
     indexed by constant columns is one base and one stride for all its fields (views alone made the pair pass of
     a dense bed 1.4 times as slow). The code must bind each block: ``hot = s.hot``."""
