@@ -1,10 +1,11 @@
 """What the default run of the suite holds: every test but those marked ``slow``.
 
-The slow tests are the long end-to-end runs (LIGGGHTS-PUBLIC built from git with a real C++ compiler, the
-cross-code scenes and shapes, scaling over ranks, bisects over built commits): together they take longer than the
-rest of the suite. ``--slow`` adds them; .ci/run passes it, so that every commit is checked with them. A marker
-expression that names ``slow`` (``-m slow``, ``-m "slow and liggghts"``) is honoured as it is written, and a
-test named by its id (``tests/engine/test_jit.py::test_name``) runs whatever its marks.
+The slow tests are the long end-to-end runs: LIGGGHTS-PUBLIC built from git with a real C++ compiler, the
+cross-code scenes and shapes, scaling over ranks, bisects over built commits, the whole collection, a few engine
+scenes run several times to compare their bytes. ``--slow`` adds them; .ci/run runs them after the default run
+(``-m slow``), so that every commit is checked with them. A marker expression that names ``slow`` (``-m slow``,
+``-m "slow and liggghts"``) is honoured as it is written, and a test named by its id
+(``tests/engine/test_jit.py::test_name``) runs whatever its marks.
 """
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import os
 def pytest_addoption(parser):
     parser.addoption("--slow", action="store_true", default=False,
                      help="also run the tests marked slow (long end-to-end runs: a real C++ build, cross-code scenes, "
-                          "scaling); .ci/run passes it")
+                          "scaling); -m slow runs only them")
 
 
 def _slow_included(config) -> bool:
@@ -23,7 +24,7 @@ def _slow_included(config) -> bool:
 
 def pytest_report_header(config):
     if not _slow_included(config):
-        return "slow tests: left out (--slow runs them as well; bash scripts/test.sh --slow is the whole CI run)"
+        return "slow tests: left out (--slow runs them as well, -m slow only them)"
     return None
 
 

@@ -11,6 +11,9 @@ import pytest
 
 from harness.execution.workspace import PROJECT_ROOT
 
+# the whole collection, about 200 runs: 4-5 minutes on two cores with the kernels to compile
+pytestmark = pytest.mark.slow
+
 
 def harness(home, *args, timeout=1500):
     return harness_process.harness(home, *args, machine="ci", check=False, timeout=timeout)

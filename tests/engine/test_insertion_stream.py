@@ -315,6 +315,7 @@ def _engine(folder, *args, env=None):
     return engine_program(folder, STREAM, *args, env=env)
 
 
+@pytest.mark.slow
 def test_insertion_and_outlet_give_the_same_bytes_on_any_thread_count(tmp_path):
     one = _engine(tmp_path / "one", env={"NUMBA_NUM_THREADS": "1"})
     two = _engine(tmp_path / "two", "-threads", "2")

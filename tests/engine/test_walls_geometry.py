@@ -344,6 +344,7 @@ def test_a_cylinder_along_x_is_the_z_cylinder_with_the_axes_renamed(engine_run):
         np.testing.assert_allclose(b[xb], a[za], rtol=0, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_a_turning_cylinder_drags_the_bed_like_a_turning_faceted_mesh(engine_run):
     """A drum along y turning at 3 rad/s: the analytic cylinder and an STL drum of 360 facets rotating as a
     mesh lift the bed alike (the bed's centre of mass moves against the turn: -x for +omega about +y)."""
@@ -466,6 +467,7 @@ def _drum_program(folder, steps, restart_at=None, threads=1):
     return read_csv(folder / "series.csv")
 
 
+@pytest.mark.slow
 def test_a_rotating_mesh_drum_gives_the_same_bytes_on_two_threads_and_after_a_restart(tmp_path):
     one = _drum_program(tmp_path / "one", 3000)
     _drum_program(tmp_path / "two", 3000, threads=2)
