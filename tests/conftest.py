@@ -39,7 +39,8 @@ def pytest_collection_modifyitems(config, items):
     if _slow_included(config):
         return
     named = _named(config)
-    slow = [item for item in items if item.get_closest_marker("slow") and not item.nodeid.startswith(named or ("\0",))]
+    slow = [item for item in items
+            if item.get_closest_marker("slow") and not (named and item.nodeid.startswith(named))]
     if slow:
         config.hook.pytest_deselected(items=slow)
         left_out = set(map(id, slow))
