@@ -5,7 +5,8 @@ every test folder (``pythonpath = ["tests"]`` in pyproject.toml puts this folder
 - ``records`` / ``series``: the run.json records of a target's runs and a series' columns in one;
 - ``run_code``: one run of a code in a folder with its adapter's command line (as ``harness run`` starts it);
 - ``git_repo`` / ``commit_files``: temporary git repositories for targets;
-- ``free_port`` / ``stop_session``: a port for a test's server, and stopping the server's process group.
+- ``free_port`` / ``stop_session``: a port for a test's server, and stopping the server's process group;
+- ``as_from_a_terminal``: Ctrl-C reaches a started program as it would from a terminal.
 """
 from __future__ import annotations
 
@@ -34,15 +35,23 @@ def command(home: Path, *args: str, targets: Path | None = None, machine: str = 
     return line + [str(a) for a in args]
 
 
+def as_from_a_terminal() -> None:
+    """``preexec_fn`` of a program a test interrupts with SIGINT: the signal's default action, whatever this
+    process inherited. A shell without job control starts a background command (``bash .ci/run &``) with SIGINT
+    ignored, every program it starts inherits that, and Python then installs no KeyboardInterrupt handler: the
+    harness would never see the Ctrl-C the test sends."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def harness(home: Path, *args: str, targets: Path | None = None, check: bool = True, machine: str = MACHINE,
             timeout: float = 600, env: dict | None = None, popen: bool = False):
     """Run ``harness ARGS`` on the store under ``home``; with ``check`` its exit code must be 0 (the output is
     in the assertion). ``env``: the whole environment (None: this process'); ``popen``: start it and return
-    the Popen (stdout and stderr piped) instead of waiting."""
+    the Popen (stdout and stderr piped, Ctrl-C as from a terminal) instead of waiting."""
     line = command(home, *args, targets=targets, machine=machine)
     if popen:
         return subprocess.Popen(line, cwd=PROJECT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                text=True)
+                                text=True, preexec_fn=as_from_a_terminal)
     result = subprocess.run(line, cwd=PROJECT, capture_output=True, text=True, errors="replace",
                             timeout=timeout, env=env)
     if check:

@@ -15,6 +15,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
+import harness_process
 from harness_support import commit_files, fake_engine_source, git_repo
 
 from harness.cli import main
@@ -242,7 +243,8 @@ def test_interrupt_records_runs_in_flight_and_a_rerun_picks_them_up(store, tmp_p
                                                 "testcases": ["cases"]}))
     env = {**os.environ, "HARNESS_HOME": str(tmp_path / "home2"), "PYTHONPATH": str(Path(__file__).parents[2])}
     command = [sys.executable, "-m", "harness.cli", "--machine", "m1", "--targets", str(targets), "run"]
-    process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=harness_process.as_from_a_terminal)
     runs = tmp_path / "home2" / "runs" / "m1" / "t"
     deadline = time.monotonic() + 60
     while not list(runs.glob("*/cases/slow/r.*/log.dem")) and time.monotonic() < deadline:
