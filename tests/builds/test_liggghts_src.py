@@ -1,10 +1,11 @@
 """LIGGGHTS-PUBLIC built from its own history (the git bundle of the shared fixtures) with CMake, VTK and
 ccache, then run on the LIGGGHTS test cases as they are committed (their ``dump custom/vtk`` lines included):
-two adjacent commits (the second through ccache), the scenes of the target against the Debian binary, and
-the release 3.8.0 with the patches that make it compile with today's GCC and VTK 9.
+the release 3.8.0 with the patches that make it compile with today's GCC and VTK 9, the commit after it
+through ccache (a bisect step), and the scenes of the target on that commit against the Debian binary.
 
 Slow (a cold build takes minutes): one workspace for the module, so every commit is built once and shared by
-the tests, and one ccache folder for the session (``shared_ccache``).
+the tests, and one ccache folder for the session (``shared_ccache``). The module compiles from scratch once:
+the adjacent pair starts at 3.8.0, which the release test needs anyway.
 """
 import json
 import math
@@ -59,10 +60,14 @@ def build(project, revision):
     return project["built"][revision]
 
 
+# the commit after 3.8.0 ("Fix compilation without VTK"): it changes dump_mesh_vtk.cpp and dump_mesh_vtk.h
+AFTER_3_8_0 = "19b653aae015bd00f7831b6f723b2c55fd8cdaf6"
+
+
 @pytest.fixture(scope="module")
 def adjacent_builds(project):
-    """HEAD~3 (cold in a fresh ccache) then HEAD~2, which changes one source file (input_mesh_tri.cpp)."""
-    return build(project, "HEAD~3"), build(project, "HEAD~2")
+    """3.8.0 (cold in a fresh ccache) then the commit after it, which changes one source file and one header."""
+    return build(project, "3.8.0"), build(project, AFTER_3_8_0)
 
 
 def runs_of(project, commit, pattern="%"):
@@ -103,15 +108,14 @@ def check_wall_impact(project, commit):
 def test_two_adjacent_commits_the_second_through_ccache_then_the_wall_impact_on_each(project, adjacent_builds):
     (first, cold, _), (second, warm, folder) = adjacent_builds
     assert first != second
-    assert cold["patches"] == [] and cold["ccache"] is True
-    # only what changed is compiled: input_mesh_tri.cpp, and the few files that include LIGGGHTS' generated
-    # headers (style_*.h name the build folder's absolute paths, version_liggghts.h the build time; measured:
-    # 9 misses of 328, docs/liggghts.md)
+    assert cold["patches"] == warm["patches"] and cold["ccache"] is True
+    # only what changed is compiled: dump_mesh_vtk.cpp, and the few files that include dump_mesh_vtk.h or
+    # LIGGGHTS' generated headers (style_*.h name the build folder's absolute paths, version_liggghts.h the
+    # build time; docs/liggghts.md)
     assert warm["ccache_stats"]["cache_miss"] <= 12, warm["ccache_stats"]
     hits = warm["ccache_stats"]["direct_cache_hit"] + warm["ccache_stats"]["preprocessed_cache_hit"]
     assert hits > 300
-    if cold["ccache_stats"]["cache_miss"] > 300:   # the first build was cold in this cache
-        assert warm["duration_s"] <= cold["duration_s"] / 4, (warm["duration_s"], cold["duration_s"])
+    # the time it saves is a benchmark's figure (benchmarks/liggghts_build.py, docs/liggghts.md), not asserted
     assert (folder / "bin" / "liggghts-src").is_file()
     for commit in (first, second):
         check_wall_impact(project, commit)
@@ -154,7 +158,7 @@ def test_the_committed_scenes_with_their_vtk_dumps_agree_with_the_debian_binary(
             "JOIN harness_run r ON x.run_id = r.id JOIN harness_build b ON r.build_id = b.id "
             "JOIN harness_testcase c ON r.testcase_id = c.id WHERE b.\"commit\" = ?", (commit,)).fetchall()
     # our scenes agree with Debian's 3.8.0 in thermo; the tutorials with random insertion (packing, conveyor)
-    # part from it by chaos (the head compiles with -ffast-math, docs/liggghts.md): not asserted here
+    # part from it by chaos (another compiler and other flags than Debian's, docs/liggghts.md): not asserted
     ours = [(path, quantity, level) for path, quantity, level in levels if path.startswith("liggghts/")]
     assert len(ours) == 7 * 3 and all(level == "perfect" for *_, level in ours), ours   # 7 runs x atoms, ke, rke
 
