@@ -155,11 +155,29 @@ def _fault_line(exc: BaseException) -> str | None:
         from django.db import DatabaseError
 
         if isinstance(exc, DatabaseError):
-            return f"store {_store_name()}: {' '.join(str(exc).split()) or type(exc).__name__}"
+            return f"store {_store_name()}: {' '.join(str(exc).split()) or type(exc).__name__}" \
+                   f"{_sqlite_folder_fault()}"
     if isinstance(exc, OSError):
         what = exc.strerror or str(exc) or type(exc).__name__
         return f"{exc.filename}: {what}" if exc.filename else what
     return None
+
+
+def _sqlite_folder_fault() -> str:
+    """'; its folder F is read-only' when the SQLite store's folder cannot be written (SQLite keeps its journal
+    beside the file, so a read-only folder makes even a writable file fail, with "unable to open database
+    file" or "attempt to write a readonly database"); '' otherwise."""
+    try:
+        from django.conf import settings
+
+        database = settings.DATABASES["default"]
+    except Exception:  # noqa: BLE001 - settings not configured: no store was opened
+        return ""
+    if not database["ENGINE"].endswith("sqlite3"):
+        return ""
+    folder = Path(str(database["NAME"])).parent
+    # access(2) answers EROFS for a read-only file system even to root, whom file modes do not stop
+    return f"; its folder {folder} is read-only" if folder.is_dir() and not os.access(folder, os.W_OK) else ""
 
 
 def _store_name() -> str:

@@ -342,9 +342,10 @@ def history_plots(request, target_id, testcase):
 def regressions(request):
     """The commits where a test case's stepping time or a quantity changed (harness.analysis.regressions.histories,
     as ``harness regressions`` prints them), on one machine, optionally of one target and ``-k`` pattern."""
-    machine = _one_machine(request, "regressions")
+    # every parameter is read before the store is asked which machine: a malformed one is named whatever it holds
     target_id = params.optional_id(request.GET, "target")
     pattern = params.text(request.GET, "k")
+    machine = _one_machine(request, "regressions")
     target = get_object_or_404(Target, pk=target_id) if target_id else None
     found = histories(machine.name, target.name if target else None, pattern) if machine else []
     return render(request, "webfrontend/regressions.html", {
@@ -498,9 +499,9 @@ MATRIX_TARGET_LIMIT = 12
 def _matrix(request):
     """(machine, target names, -k pattern, harness.analysis.matrix.Matrix or None) of a matrix request: the targets
     named (``?target=ID``, in that order), else those named ``*-crosscode`` as ``harness matrix`` takes them."""
-    machine = _one_machine(request, "matrix")
     ids = params.id_list(request.GET, "target", MATRIX_TARGET_LIMIT, "targets")
     pattern = params.text(request.GET, "k")
+    machine = _one_machine(request, "matrix")   # after the parameters, as in regressions()
     if ids:
         found = dict(Target.objects.filter(pk__in=ids).values_list("pk", "name"))
         missing = [i for i in ids if i not in found]
