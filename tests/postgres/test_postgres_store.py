@@ -81,6 +81,7 @@ def test_two_machines_write_one_postgres_store_at_once(server, tmp_path):
     assert _rows(url, "SELECT COUNT(*) FROM harness_testcase") == [(3,)]  # created once, though raced for
 
 
+@pytest.mark.slow   # minutes: these suites run on SQLite in the default run already
 def test_store_cli_and_dashboard_suites_pass_on_postgres(server, tmp_path):
     url = server.create_database("harness_suites")
     env = {**os.environ, "HARNESS_DATABASE_URL": url}
