@@ -28,17 +28,24 @@ def store_fixtures(prefix: str):
 
     @pytest.fixture
     def store(django_store, tmp_path, monkeypatch):
-        """An empty store; builds and run folders of this test under ``tmp_path/home``."""
+        """An empty store, emptied again afterwards; builds and run folders of this test under ``tmp_path/home``.
+        Emptied both ways because a process may open the dashboard's test database first (tests/web/conftest.py,
+        when a pytest-xdist worker takes a module of tests/web before this one): rows left in it would then meet
+        the dashboard's test classes, which create their own targets and machines under the same names."""
         from harness.store.models import (  # Django is set up by django_store
             Machine,
             Target,
             TestCase,
         )
 
-        Machine.objects.all().delete()
-        Target.objects.all().delete()
-        TestCase.objects.all().delete()
+        def empty():
+            Machine.objects.all().delete()
+            Target.objects.all().delete()
+            TestCase.objects.all().delete()
+
+        empty()
         monkeypatch.setenv("HARNESS_HOME", str(tmp_path / "home"))
-        return tmp_path
+        yield tmp_path
+        empty()
 
     return django_store, store
