@@ -167,27 +167,29 @@ def _sqlite_folder_fault() -> str:
     """'; its folder F is read-only' when the SQLite store's folder cannot be written (SQLite keeps its journal
     beside the file, so a read-only folder makes even a writable file fail, with "unable to open database
     file" or "attempt to write a readonly database"); '' otherwise."""
-    try:
-        from django.conf import settings
-
-        database = settings.DATABASES["default"]
-    except Exception:  # noqa: BLE001 - settings not configured: no store was opened
-        return ""
-    if not database["ENGINE"].endswith("sqlite3"):
+    database = _store_settings()
+    if database is None or not database["ENGINE"].endswith("sqlite3"):
         return ""
     folder = Path(str(database["NAME"])).parent
     # access(2) answers EROFS for a read-only file system even to root, whom file modes do not stop
     return f"; its folder {folder} is read-only" if folder.is_dir() and not os.access(folder, os.W_OK) else ""
 
 
-def _store_name() -> str:
-    """The SQLite file, or ENGINE HOST:PORT/NAME of a database server (never its password)."""
+def _store_settings() -> dict | None:
+    """Django's settings of the store's database, None before Django is configured."""
     try:
         # the store's models (Django) load once Django is set up (harness.store)
         from django.conf import settings
 
-        database = settings.DATABASES["default"]
-    except Exception:  # noqa: BLE001 - settings not configured: name what the workspace would use
+        return settings.DATABASES["default"]
+    except Exception:  # noqa: BLE001 - settings not configured
+        return None
+
+
+def _store_name() -> str:
+    """The SQLite file, or ENGINE HOST:PORT/NAME of a database server (never its password)."""
+    database = _store_settings()
+    if database is None:   # name what the workspace would use
         return str(workspace().database)
     if database["ENGINE"].endswith("sqlite3"):
         return str(database["NAME"])

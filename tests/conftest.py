@@ -3,10 +3,9 @@
 The slow tests are the long end-to-end runs: LIGGGHTS-PUBLIC built from git with a real C++ compiler, the
 cross-code scenes and shapes, scaling over ranks, bisects over built commits, the whole collection, a few engine
 scenes run several times to compare their bytes, and the store, CLI and dashboard suites run again on
-PostgreSQL. ``--slow`` adds them; .ci/run runs them after the default run
-(``-m slow``), so that every commit is checked with them. A marker expression that names ``slow`` (``-m slow``,
-``-m "slow and liggghts"``) is honoured as it is written, and a test named by its id
-(``tests/engine/test_jit.py::test_name``) runs whatever its marks.
+PostgreSQL. ``--slow`` adds them; .ci/run runs them after the default run (``-m slow``), so that every commit is
+checked with them. A marker expression that names ``slow`` (``-m slow``, ``-m "slow and liggghts"``) is honoured
+as it is written, and a test named by its id (``tests/engine/test_jit.py::test_name``) runs whatever its marks.
 """
 from __future__ import annotations
 
